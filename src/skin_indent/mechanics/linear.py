@@ -1,0 +1,52 @@
+"""Sparse linear solves for Newton's method, reusing factorisations.
+
+Consecutive tangents of an incremental solution differ little, so the LU
+factorisation of an earlier tangent is an excellent preconditioner for the
+current one: :class:`TangentSolver` first tries conjugate gradients
+preconditioned with the stored factorisation (a few triangular solves), and
+refactorises with SuperLU only when that does not converge quickly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse.linalg import LinearOperator, cg, splu
+
+
+class TangentSolver:
+    """Solve ``K x = b`` for a sequence of similar symmetric tangents ``K``.
+
+    Parameters
+    ----------
+    rtol : float
+        Relative residual required of the preconditioned CG solution.
+    max_cg : int
+        CG iterations allowed before the tangent is refactorised.
+    """
+
+    def __init__(self, rtol: float = 1e-10, max_cg: int = 12):
+        self.rtol = rtol
+        self.max_cg = max_cg
+        self._lu = None
+        self.factorisations = 0
+        self.cg_solves = 0
+
+    def _factorise(self, K):
+        self._lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                        options={"SymmetricMode": True})
+        self.factorisations += 1
+
+    def solve(self, K, b: np.ndarray, rtol: float | None = None) -> np.ndarray:
+        """Solution of ``K x = b``; raises ``RuntimeError`` if K is singular.
+
+        ``rtol`` overrides the CG tolerance for this solve (an inexact Newton
+        method needs only a loose solve while its own residual is large).
+        """
+        if self._lu is not None:
+            M = LinearOperator(K.shape, matvec=self._lu.solve, dtype=float)
+            x, info = cg(K, b, rtol=self.rtol if rtol is None else rtol, atol=0.0, maxiter=self.max_cg, M=M)
+            if info == 0 and np.all(np.isfinite(x)):
+                self.cg_solves += 1
+                return x
+        self._factorise(K)
+        return self._lu.solve(b)

@@ -1,0 +1,104 @@
+"""Compressible neo-Hookean solid."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .base import Material, ParameterInfo, check_elastic_constants, kinematics, lame_parameters
+
+
+@dataclass(frozen=True)
+class NeoHooke(Material):
+    r"""Compressible neo-Hookean solid (the reference law of the project).
+
+    .. math::
+
+        W = \frac{\mu}{2}(I_1 - 3 - 2\ln J) + \frac{\lambda}{2}(\ln J)^2,
+        \qquad \mu = \frac{E}{2(1+\nu)},\quad
+        \lambda = \frac{E\nu}{(1+\nu)(1-2\nu)}
+
+    with :math:`I_1 = \mathrm{tr}(F^T F)` and :math:`J = \det F`. At small strain it
+    reduces to Hooke's law with the same E and nu.
+
+    Parameters
+    ----------
+    E_kPa : float
+        Young's modulus at small strain, kPa (> 0).
+    nu : float
+        Poisson's ratio at small strain, in (-1, 0.5).
+
+    Notes
+    -----
+    Assumptions: isotropic, hyperelastic (no rate or history dependence), compressible.
+    The stress and tangent are homogeneous of degree one in (mu, lambda), so the
+    indentation force is exactly proportional to E at fixed nu.
+    """
+
+    E_kPa: float
+    nu: float
+
+    name = "neo-hooke"
+    parameter_info = (
+        ParameterInfo("E_kPa", "kPa", 0.0, np.inf, "Young's modulus at small strain"),
+        ParameterInfo("nu", "-", -1.0, 0.5, "Poisson's ratio at small strain"),
+    )
+
+    def __post_init__(self):
+        check_elastic_constants(self.E_kPa, self.nu)
+
+    @property
+    def reference_modulus(self) -> float:
+        return float(self.E_kPa)
+
+    @property
+    def lame(self) -> tuple[float, float]:
+        """``(mu, lam)`` in kPa."""
+        return lame_parameters(self.E_kPa, self.nu)
+
+    def energy(self, H):
+        mu, lam = self.lame
+        _, _, lnJ, _ = kinematics(H)
+        i1m3 = 2.0 * np.einsum("ii...->...", H) + np.einsum("iJ...,iJ...->...", H, H)  # I1 - 3
+        return 0.5 * mu * (i1m3 - 2.0 * lnJ) + 0.5 * lam * lnJ**2
+
+    def stress(self, H):
+        return self._stress(H, *kinematics(H))
+
+    def _stress(self, H, F, Finv, lnJ, J):
+        # mu (F - F^-T) + lam ln J F^-T, with F - F^-T = H + F^-T H^T (no cancellation)
+        mu, lam = self.lame
+        FinvT = np.swapaxes(Finv, 0, 1)
+        return mu * (H + np.einsum("iK...,JK...->iJ...", FinvT, H)) + lam * lnJ * FinvT
+
+    def stress_and_tangent(self, H):
+        mu, lam = self.lame
+        F, Finv, lnJ, J = kinematics(H)
+        P = self._stress(H, F, Finv, lnJ, J)
+        FinvT = np.swapaxes(Finv, 0, 1)
+        # A_iJkL = mu d_ik d_JL + lam Finv_Ji Finv_Lk + (mu - lam ln J) Finv_Jk Finv_Li
+        A = lam * FinvT[:, :, None, None] * FinvT[None, None, :, :] + (mu - lam * lnJ) * (
+            Finv[None, :, :, None] * FinvT[:, None, None, :]
+        )
+        for i in range(3):
+            for j in range(3):
+                A[i, j, i, j] += mu
+        return P, A
+
+    def tangent_components(self, H, pairs):
+        # Same tangent as stress_and_tangent, evaluated only on the non-zero components
+        # of F (25 of 81 in axisymmetry): this is the hot path of every Newton iteration.
+        mu, lam = self.lame
+        F, Finv, lnJ, J = kinematics(H)
+        rows = np.array([i for i, _ in pairs])
+        cols = np.array([j for _, j in pairs])
+        FinvT = np.swapaxes(Finv, 0, 1)
+        P = self._stress(H, F, Finv, lnJ, J)[rows, cols]
+        v = FinvT[rows, cols]
+        A = lam * v[:, None] * v[None, :] + (mu - lam * lnJ) * (
+            Finv[cols[:, None], rows[None, :]] * Finv[cols[None, :], rows[:, None]]
+        )
+        same = np.arange(len(pairs))
+        A[same, same] += mu
+        return P, A

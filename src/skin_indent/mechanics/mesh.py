@@ -1,0 +1,215 @@
+"""Graded axisymmetric meshes of a half-space under a spherical indenter.
+
+The half-space ``r >= 0, z <= 0`` (mm; z points up, the free surface is ``z = 0``)
+is truncated to the square ``[0, L] x [-L, 0]`` with ``L`` two thousand contact
+radii (~3900 mm for the paper's test), so the far boundary is almost free. The
+element size is small on the surface under the contact and grows linearly with
+the distance from it, which makes the mesh geometric: few elements reach the far
+boundary. The mesh is built with scikit-fem alone: start from two triangles and
+refine adaptively (red-green-blue, longest-edge bisection) until every element is
+below the target size. The quadratic (P2) elements then live on this mesh.
+
+Every length is scaled by the largest contact radius ``a = sqrt(R h_max)``, so the
+same mesh design serves any sphere radius and depth range.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+from skfem import MeshTri
+
+
+@dataclass(frozen=True)
+class MeshDesign:
+    """Dimensionless design of a graded indentation mesh.
+
+    Parameters
+    ----------
+    name : str
+        Name of the design (e.g. ``"medium"``).
+    contact_elements : float
+        Number of surface elements across the largest contact radius ``a``.
+    growth : float
+        Element size grows as ``s0 + growth * d`` with the distance ``d`` from the
+        fine surface patch (a geometric growth ratio of about ``1 + growth``).
+    patch : float
+        Radius of the fine surface patch, in units of ``a``.
+    extent : float
+        Size ``L`` of the truncated domain, in units of ``a``.
+    depth_growth : float
+        Depth is weighted by this factor in the distance ``d``, so elements grow
+        faster downwards than along the surface: the contact edge needs fine
+        surface elements, the smooth field below it does not.
+    """
+
+    name: str
+    contact_elements: float
+    growth: float = 1.0
+    patch: float = 1.3
+    extent: float = 2000.0
+    depth_growth: float = 1.0
+
+
+#: The default family, from coarse to fine (see ``meshes/README.md``).
+MESH_FAMILY = {
+    "coarse": MeshDesign("coarse", contact_elements=6.0),
+    "medium": MeshDesign("medium", contact_elements=12.0),
+    "fine": MeshDesign("fine", contact_elements=24.0),
+}
+DEFAULT_MESH = "medium"
+
+
+@dataclass(frozen=True)
+class IndentationMesh:
+    """A P1 triangle mesh (vertices) of the truncated half-space, with its design.
+
+    Attributes
+    ----------
+    mesh : skfem.MeshTri
+        Vertices and triangles, lengths in mm, with named boundaries
+        ``axis``, ``top``, ``bottom``, ``outer``.
+    name : str
+        Human-readable name saying how the mesh was obtained.
+    contact_radius_mm : float
+        The design contact radius ``a = sqrt(R h_max)`` in mm.
+    surface_size_mm : float
+        Element size on the fine surface patch, mm.
+    extent_mm : float
+        Size L of the domain, mm.
+    """
+
+    mesh: MeshTri
+    name: str
+    contact_radius_mm: float
+    surface_size_mm: float
+    extent_mm: float
+
+    @property
+    def n_vertices(self) -> int:
+        return self.mesh.p.shape[1]
+
+    @property
+    def n_elements(self) -> int:
+        return self.mesh.t.shape[1]
+
+
+def _distance_to_patch(x: np.ndarray, patch_mm: float, depth_weight: float = 1.0) -> np.ndarray:
+    """Distance of points ``x`` (2, n) to the surface segment ``0 <= r <= patch, z = 0``.
+
+    The depth coordinate is weighted by ``depth_weight``.
+    """
+    dr = np.maximum(x[0] - patch_mm, 0.0)
+    return np.hypot(dr, depth_weight * x[1])
+
+
+def _longest_edge(mesh: MeshTri) -> np.ndarray:
+    p, t = mesh.p, mesh.t
+    edges = [np.linalg.norm(p[:, t[i]] - p[:, t[(i + 1) % 3]], axis=0) for i in range(3)]
+    return np.max(edges, axis=0)
+
+
+def graded_mesh(radius_mm: float, depth_mm: float, design: MeshDesign | str = DEFAULT_MESH) -> IndentationMesh:
+    """Build the graded mesh for a sphere of radius R pressed to depth h_max.
+
+    Parameters
+    ----------
+    radius_mm : float
+        Sphere radius R, mm.
+    depth_mm : float
+        Largest indentation depth h_max the mesh is designed for, mm.
+    design : MeshDesign or str
+        A design or the name of a member of :data:`MESH_FAMILY`.
+
+    Returns
+    -------
+    IndentationMesh
+    """
+    if isinstance(design, str):
+        if design not in MESH_FAMILY:
+            raise ValueError(f"unknown mesh {design!r}: choose one of {sorted(MESH_FAMILY)} or a file path")
+        design = MESH_FAMILY[design]
+    if not (radius_mm > 0 and depth_mm > 0):
+        raise ValueError(f"radius and depth must be > 0 mm, got R={radius_mm}, h={depth_mm}")
+    a = math.sqrt(radius_mm * depth_mm)
+    s0 = a / design.contact_elements
+    patch = design.patch * a
+    L = design.extent * a
+    mesh = MeshTri.init_tensor(np.array([0.0, L]), np.array([-L, 0.0]))
+    for _ in range(200):
+        centroid = mesh.p[:, mesh.t].mean(axis=1)
+        size = _longest_edge(mesh)
+        d = np.maximum(_distance_to_patch(centroid, patch, design.depth_growth) - design.depth_growth * size, 0.0)
+        target = s0 + design.growth * d
+        marked = np.nonzero(size > target)[0]
+        if marked.size == 0:
+            break
+        mesh = mesh.refined(marked)
+    mesh = _with_named_boundaries(mesh, L)
+    name = f"{design.name} (generated: P2 on {mesh.t.shape[1]} triangles, a={a:.4g} mm, s0={s0:.3g} mm, L={L:.4g} mm)"
+    return IndentationMesh(mesh, name, a, s0, L)
+
+
+def _with_named_boundaries(mesh: MeshTri, L: float) -> MeshTri:
+    tol = 1e-9 * L
+    return mesh.with_boundaries(
+        {
+            "axis": lambda x: x[0] < tol,
+            "top": lambda x: x[1] > -tol,
+            "bottom": lambda x: x[1] < -L + tol,
+            "outer": lambda x: x[0] > L - tol,
+        }
+    )
+
+
+def save_mesh(imesh: IndentationMesh, path: str | Path) -> None:
+    """Write the mesh with meshio (format from the suffix, e.g. ``.vtu``) and a JSON sidecar."""
+    import meshio
+
+    path = Path(path)
+    m = imesh.mesh
+    meshio.Mesh(m.p.T, [("triangle", m.t.T)]).write(path)
+    meta = {
+        "name": imesh.name,
+        "contact_radius_mm": imesh.contact_radius_mm,
+        "surface_size_mm": imesh.surface_size_mm,
+        "extent_mm": imesh.extent_mm,
+    }
+    path.with_suffix(".json").write_text(json.dumps(meta, indent=2) + "\n")
+
+
+def load_mesh(path: str | Path) -> IndentationMesh:
+    """Read a mesh written by :func:`save_mesh` (or any meshio triangle mesh of the domain).
+
+    The domain must be ``[0, L] x [-L, 0]`` in mm, with the free surface at z = 0.
+    """
+    import meshio
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"mesh file not found: {path}")
+    mio = meshio.read(path)
+    tri = [c.data for c in mio.cells if c.type == "triangle"]
+    if not tri:
+        raise ValueError(f"mesh file {path} holds no triangle cells")
+    p = np.asarray(mio.points[:, :2], dtype=float).T
+    mesh = MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(np.vstack(tri).T))
+    L = float(p[0].max())
+    if abs(p[1].max()) > 1e-9 * L or p[0].min() < -1e-9 * L:
+        raise ValueError(f"mesh {path} must span r >= 0, z <= 0 with its free surface at z = 0")
+    sidecar = path.with_suffix(".json")
+    meta = json.loads(sidecar.read_text()) if sidecar.is_file() else {}
+    top = np.abs(p[1]) <= 1e-9 * L
+    r_top = np.sort(p[0, top])
+    s0 = meta.get("surface_size_mm", float(np.diff(r_top[:2])[0]) if r_top.size > 1 else L)
+    return IndentationMesh(
+        _with_named_boundaries(mesh, L),
+        f"{path.name} (read from file)",
+        meta.get("contact_radius_mm", float("nan")),
+        s0,
+        L,
+    )

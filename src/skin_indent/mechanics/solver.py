@@ -1,0 +1,283 @@
+"""Incremental Newton solution of the indentation problem under depth control.
+
+:class:`IndentationProblem` joins the body (:class:`~.axisymmetric.AxisymmetricSolid`),
+the contact (:class:`~.contact.SphereContact`) and the boundary conditions, and
+:meth:`IndentationProblem.solve` pushes the sphere through a list of depths. Each
+increment starts from a linear extrapolation of the two previous converged states
+(most increments then need one or two Newton iterations), solves with the
+consistent tangent, shortens a step that overshoots the minimum of the potential
+along the Newton direction (a line search on its directional derivative), and halves the increment when Newton fails. When even
+small increments fail, :class:`ConvergenceError` says where and why.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .axisymmetric import AxisymmetricSolid, SparsityPattern
+from .contact import SphereContact, SphericalIndenter
+from .linear import TangentSolver
+from .materials import Material
+from .predictor import SimilarityPredictor
+from .mesh import IndentationMesh
+
+
+class ConvergenceError(RuntimeError):
+    """Newton's method failed to converge at some depth, even after step cutting."""
+
+
+@dataclass
+class NewtonReport:
+    """Statistics of one incremental solution.
+
+    Attributes
+    ----------
+    increments : int
+        Number of converged increments (including any cut steps).
+    iterations : list of int
+        Newton iterations of each converged increment.
+    residuals : list of float
+        Final relative residual of each increment.
+    step_cuts : int
+        How often an increment was halved.
+    line_search_backtracks : int
+        Number of step-length reductions.
+    max_penetration_ratio : float
+        Largest penetration of the surface into the sphere relative to the depth.
+    wall_time_s : float
+        Wall time of the solve, s.
+    """
+
+    increments: int = 0
+    iterations: list = field(default_factory=list)
+    residuals: list = field(default_factory=list)
+    step_cuts: int = 0
+    line_search_backtracks: int = 0
+    max_penetration_ratio: float = 0.0
+    wall_time_s: float = 0.0
+
+    @property
+    def total_iterations(self) -> int:
+        return int(np.sum(self.iterations))
+
+    @property
+    def mean_iterations(self) -> float:
+        return float(np.mean(self.iterations)) if self.iterations else 0.0
+
+    def summary(self) -> str:
+        return (
+            f"{self.increments} increments, {self.total_iterations} Newton iterations "
+            f"({self.mean_iterations:.2f} per increment), {self.step_cuts} step cuts, "
+            f"{self.line_search_backtracks} backtracks, max penetration {self.max_penetration_ratio:.2e} x depth, "
+            f"{self.wall_time_s:.2f} s"
+        )
+
+
+class IndentationProblem:
+    """A rigid sphere pressed into an axisymmetric body, ready to be solved.
+
+    Parameters
+    ----------
+    imesh : IndentationMesh
+        Mesh of the truncated half-space (lengths in mm).
+    material : Material or None
+        Constitutive law of the whole body, or None when ``regions`` is given.
+    indenter : SphericalIndenter
+    max_depth_mm : float
+        Largest depth that will be applied, mm.
+    penalty : float
+        Dimensionless penalty factor: epsilon = penalty * E_ref / a (kPa/mm), with
+        ``a = sqrt(R h_max)`` the design contact radius of the mesh. Independent of
+        the element size, so a mesh-convergence study sees discretisation error only.
+    regions : sequence of (element indices, Material), optional
+        Materials per element group (layered bodies).
+    rtol : float
+        Newton tolerance on the free residual relative to the contact force vector.
+    max_iterations : int
+        Newton iterations allowed per increment before it is cut.
+    max_cuts : int
+        How often one increment may be halved before giving up.
+    bottom : {"clamped", "rigid-base"}
+        Bottom boundary condition (both fix u_r and u_z on z = -L).
+    """
+
+    def __init__(self, imesh: IndentationMesh, material: Material | None, indenter: SphericalIndenter,
+                 max_depth_mm: float, penalty: float = 3.6e4, regions=None, rtol: float = 1e-6,
+                 max_iterations: int = 25, max_cuts: int = 8):
+        self.imesh = imesh
+        self.indenter = indenter
+        self.solid = AxisymmetricSolid(imesh.mesh, material, regions=regions)
+        e_ref = max(m.reference_modulus for _, m in self.solid.regions)
+        a = math.sqrt(indenter.radius_mm * max_depth_mm)
+        self.contact = SphereContact(imesh.mesh, indenter, max_depth_mm, penalty * e_ref / a,
+                                     small_strain=self.solid.small_strain)
+        b = self.solid.basis
+        fixed = np.zeros(b.N, dtype=bool)
+        fixed[b.get_dofs("axis").all("u^1")] = True
+        fixed[b.get_dofs("outer").all("u^1")] = True
+        fixed[b.get_dofs("bottom").all()] = True
+        self.free = ~fixed
+        self.pattern = SparsityPattern(self.solid.element_dofs, self.free)
+        self.pattern.register(self.contact.element_dofs)
+        self.rtol = rtol
+        self.linear_solver = TangentSolver()
+        self.max_iterations = max_iterations
+        self.max_cuts = max_cuts
+
+    @property
+    def n_dofs(self) -> int:
+        return self.solid.n_dofs
+
+    def _evaluate(self, u, depth, tangent=True):
+        # trial states may invert elements (J <= 0): the residual is then not finite
+        # and the iteration fails cleanly (step cut) instead of warning
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            f_int, Ke = self.solid.forces(u, tangent)
+            f_c, Kc, force = self.contact.forces(u, depth, tangent)
+        return f_int, Ke, f_c, Kc, force
+
+    def _directional(self, u, du, alpha, depth):
+        """Directional derivative of the potential, du . r(u + alpha du), on the free dofs."""
+        f_int, _, f_c, _, _ = self._evaluate(u + alpha * du, depth, tangent=False)
+        return float((f_int + f_c)[self.free] @ du[self.free])
+
+    def _line_search(self, u, du, g0, g1, depth, report):
+        """Step length where the directional derivative of the potential has dropped.
+
+        Uses only internal forces (no energy values, whose round-off on a 1000 mm
+        mesh exceeds the changes near convergence): regula falsi on
+        g(alpha) = du . r(u + alpha du) between g(0) < 0 and g(1) > 0.
+        """
+        lo, g_lo, hi, g_hi = 0.0, g0, 1.0, g1
+        alpha, side = 1.0, 0
+        for _ in range(8):
+            alpha = lo - g_lo * (hi - lo) / (g_hi - g_lo)
+            g = self._directional(u, du, alpha, depth)
+            report.line_search_backtracks += 1
+            if abs(g) <= 0.5 * abs(g0):
+                break
+            if g < 0:  # Illinois: halve the weight of the end point kept twice in a row
+                lo, g_lo = alpha, g
+                if side == -1:
+                    g_hi *= 0.5
+                side = -1
+            else:
+                hi, g_hi = alpha, g
+                if side == 1:
+                    g_lo *= 0.5
+                side = 1
+        return alpha
+
+    def _newton(self, u: np.ndarray, depth: float, report: NewtonReport):
+        """Newton iterations at fixed depth from the predictor ``u`` (modified in place)."""
+        free = self.free
+        f_int, Ke, f_c, Kc, force = self._evaluate(u, depth)
+        rel = np.inf
+        for it in range(self.max_iterations + 1):
+            r = (f_int + f_c)[free]
+            ref = max(np.linalg.norm(f_c[free]), np.linalg.norm(f_int[free]), 1e-300)
+            rel = np.linalg.norm(r) / ref
+            if rel <= self.rtol:
+                return True, it, rel, force
+            if it == self.max_iterations or not np.isfinite(rel):
+                break
+            K = self.pattern.assemble([(self.solid.element_dofs, Ke), (self.contact.element_dofs, Kc)])
+            try:
+                # inexact Newton: the linear residual need only be small next to Newton's own
+                du_free = self.linear_solver.solve(K, -r, rtol=min(1e-3, max(1e-2 * rel, 1e-10)))
+            except RuntimeError:  # singular tangent
+                break
+            du = np.zeros_like(u)
+            du[free] = du_free
+            g0 = float(r @ du_free)
+            if not g0 < 0:  # not a descent direction: the tangent is not positive definite here
+                break
+            f_int, Ke, f_c, Kc, force = self._evaluate(u + du, depth)
+            g1 = float((f_int + f_c)[free] @ du_free)
+            if g1 > 0.9 * abs(g0):  # overshoot: by the trapezoid rule the potential did not decrease
+                alpha = self._line_search(u, du, g0, g1, depth, report)
+                f_int, Ke, f_c, Kc, force = self._evaluate(u + alpha * du, depth)
+                du *= alpha
+            u += du
+        return False, it, rel, force
+
+    def _predict(self, u, u_prev, h_prev, h_cur, h_try, similarity):
+        """First iterate at depth ``h_try`` from the converged states at ``h_cur`` and ``h_prev``."""
+        if similarity is not None and h_cur > 0 and np.isclose(h_try / h_cur, similarity.ratio, rtol=1e-9):
+            geometric = u_prev is not None and h_prev > 0 and np.isclose(h_cur / h_prev, similarity.ratio, rtol=1e-9)
+            return similarity(u, u_prev if geometric else None)
+        if u_prev is not None and h_cur > h_prev:
+            return u + (u - u_prev) * ((h_try - h_cur) / (h_cur - h_prev))
+        return u.copy()
+
+    def solve(self, depths_mm, progress=None, predictor: str = "auto"):
+        """Push the sphere through ``depths_mm`` (increasing, > 0) and return the forces.
+
+        Parameters
+        ----------
+        depths_mm : array_like
+            Depths at which the state is solved and the force recorded, mm.
+        progress : callable, optional
+            Called as ``progress(i)`` after each requested depth.
+        predictor : {"auto", "linear", "similarity"}
+            First iterate of each increment: linear extrapolation in depth, or the
+            self-similar map of :mod:`.predictor` (needs geometrically spaced depths;
+            "auto" uses it when they are).
+
+        Returns
+        -------
+        forces : ndarray
+            Force on the sphere at each depth, mN.
+        u : ndarray
+            Final displacement field, mm.
+        report : NewtonReport
+        """
+        depths = np.asarray(depths_mm, dtype=float)
+        if predictor not in ("auto", "linear", "similarity"):
+            raise ValueError(f"predictor must be 'auto', 'linear' or 'similarity', got {predictor!r}")
+        similarity = None
+        ratios = depths[1:] / depths[:-1]
+        geometric = ratios.size > 0 and np.allclose(ratios, ratios[0], rtol=1e-9) and ratios[0] > 1
+        if predictor == "similarity" and not geometric:
+            raise ValueError("the similarity predictor needs geometrically spaced depths")
+        if predictor != "linear" and geometric:
+            similarity = SimilarityPredictor(self.solid, ratios[0], self.free)
+        t0 = time.perf_counter()
+        report = NewtonReport()
+        u = np.zeros(self.n_dofs)
+        u_prev, h_prev, h_cur = None, 0.0, 0.0
+        forces = np.empty(depths.size)
+        for i, target in enumerate(depths):
+            cuts = 0
+            while True:
+                h_try = h_cur + (target - h_cur) / 2**cuts
+                trial = self._predict(u, u_prev, h_prev, h_cur, h_try, similarity)
+                ok, its, rel, force = self._newton(trial, h_try, report)
+                if ok:
+                    u_prev, h_prev, h_cur, u = u, h_cur, h_try, trial
+                    report.increments += 1
+                    report.iterations.append(its)
+                    report.residuals.append(rel)
+                    pen = self.contact.state(u, h_cur).max_penetration_mm
+                    report.max_penetration_ratio = max(report.max_penetration_ratio, pen / h_cur)
+                    if h_try == target:
+                        break
+                    cuts = max(cuts - 1, 0)
+                    continue
+                cuts += 1
+                report.step_cuts += 1
+                if cuts > self.max_cuts:
+                    report.wall_time_s = time.perf_counter() - t0
+                    raise ConvergenceError(
+                        f"Newton did not converge at depth {h_try:.6g} mm (target {target:.6g} mm) after "
+                        f"{self.max_cuts} step cuts: relative residual {rel:.2e} > {self.rtol:.0e}"
+                    )
+            forces[i] = force
+            if progress is not None:
+                progress(i)
+        report.wall_time_s = time.perf_counter() - t0
+        return forces, u, report

@@ -1,0 +1,433 @@
+"""The ResponseSurface: build, cache, interpolate."""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import warnings
+import zipfile
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from ._cache import (UnitCurve, _atomic_savez, _atomic_write, _canonical_json, _read_run, _resolve_model, _run_key, _run_one,
+                     _run_path, default_cache_dir, settings_hash)
+from ._grid import SurfaceGrid
+from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
+
+METHODS = ("lagrange", "spline")
+DEPTH_INTERPS = ("lagrange", "quartic", "spline")
+SCALINGS = ("hertz", "h1.5", "none")
+_FORMAT = "skin_indent.response_surface"
+_FORMAT_VERSION = 1
+_RTOL_BOUNDS = 1e-9  # relative tolerance on the box checks
+
+
+def _check_choice(name, value, choices):
+    if value not in choices:
+        raise ValueError(f"{name}={value!r} is not one of {choices}")
+    return value
+
+
+def _execute(unit_curve, nus, todo, depth, workers, progress, record):
+    """Run ``unit_curve`` at ``nus[k]`` for k in ``todo``; ``record(k, nu, values, reason)``."""
+    from tqdm.auto import tqdm
+
+    if workers is None or workers > 1:
+        try:
+            pickle.dumps(unit_curve)
+        except Exception as exc:
+            if workers is not None:
+                raise TypeError(f"unit_curve cannot be pickled for workers={workers} ({exc}); use a "
+                                "module-level function or a functools.partial of one, or workers=1") from None
+            workers = 1
+    if workers is None:
+        workers = min(os.cpu_count() or 1, len(todo))
+    bar = tqdm(total=len(nus), initial=len(nus) - len(todo), disable=not progress,
+               desc="response surface", unit="run")
+    try:
+        if workers <= 1 or len(todo) <= 1:
+            for k in todo:
+                record(k, *_run_one(unit_curve, nus[k], depth))
+                bar.update()
+            return
+        pool = ProcessPoolExecutor(max_workers=workers)
+        try:
+            futures = {pool.submit(_run_one, unit_curve, nus[k], depth): k for k in todo}
+            for fut in as_completed(futures):
+                record(futures[fut], *fut.result())
+                bar.update()
+        except BaseException:  # a kill or Ctrl-C: finished runs are already on disk
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown()
+    finally:
+        bar.close()
+
+
+class ResponseSurface:
+    """Force F(h; E, nu) (mN) on a grid, interpolated with analytic parameter gradients.
+
+    Implements the model protocol of :mod:`skin_indent.inverse`: ``parameter_names``,
+    ``bounds``, ``force(depth_mm, theta)`` and ``jacobian(depth_mm, theta)`` with
+    ``theta = (E_kPa, nu)``.
+
+    Parameters
+    ----------
+    grid : SurfaceGrid
+        Depths (mm), E (kPa) and nu of the nodes.
+    unit_forces : array_like, shape (n_depth, n_nu)
+        f(h; nu), force (mN) at E = 1 kPa. A column of NaN marks a failed forward run.
+    settings : mapping, optional
+        JSON-serialisable description of the forward model; hashed with the grid.
+    failures : mapping, optional
+        ``{nu: reason}`` of the failed runs (their columns must be NaN).
+    method : {"lagrange", "spline"}
+        Default interpolation in (E, nu). ``"lagrange"``: the paper's bicubic Lagrange
+        on the 4 nodes around the interval, in E over the nodal values E_j f(nu) (exact
+        in E, since Lagrange reproduces the linear function E); C0 across nodes.
+        ``"spline"``: not-a-knot cubic spline in nu (C2), times E.
+    depth_interp : {"lagrange", "quartic", "spline"}
+        Default interpolation in depth: local 4-point cubic Lagrange (the paper's),
+        a global least-squares quartic (the paper's smoother, less exact option), or a
+        not-a-knot cubic spline.
+    scaling : {"hertz", "h1.5", "none"}
+        Shape divided out before interpolating (see the module docstring).
+    """
+
+    parameter_names = ("E_kPa", "nu")
+    parameter_units = ("kPa", "-")
+
+    def __init__(self, grid, unit_forces, *, settings=None, failures=None,
+                 method="lagrange", depth_interp="lagrange", scaling="hertz"):
+        if not isinstance(grid, SurfaceGrid):
+            raise TypeError(f"grid must be a SurfaceGrid, got {type(grid).__name__}")
+        self.grid = grid
+        self.settings = json.loads(_canonical_json(settings or {}))
+        self.method = _check_choice("method", method, METHODS)
+        self.depth_interp = _check_choice("depth_interp", depth_interp, DEPTH_INTERPS)
+        self.scaling = _check_choice("scaling", scaling, SCALINGS)
+        f = np.array(unit_forces, dtype=float)
+        n_d, n_e, n_nu = grid.shape
+        if f.shape != (n_d, n_nu):
+            raise ValueError(f"unit_forces has shape {f.shape}, expected (n_depth, n_nu) = {(n_d, n_nu)}")
+        missing = np.all(np.isnan(f), axis=0)
+        if not np.all(np.isfinite(f[:, ~missing])):
+            raise ValueError("unit_forces: a column must be all finite or all NaN (failed run)")
+        failures = {float(k): str(v) for k, v in (failures or {}).items()}
+        if not set(failures) <= set(grid.nu[missing].tolist()):
+            raise ValueError("failures must name nu values of the grid whose columns are NaN")
+        for nu in grid.nu[missing].tolist():
+            failures.setdefault(nu, "no data")
+        f.flags.writeable = False
+        self._f = f
+        self._missing = missing
+        self.failures = failures
+        self.hash = settings_hash(self.settings, grid)
+        # the interpolated quantity g = f / (s_h(h) s_nu(nu))
+        h, nu = grid.depth_mm, grid.nu
+        s_h = h**1.5 if scaling != "none" else np.ones_like(h)
+        s_nu = 1.0 / (1.0 - nu**2) if scaling == "hertz" else np.ones_like(nu)
+        self._g = f / (s_h[:, None] * s_nu[None, :])
+        self._nu_ops = {"lagrange": _lagrange_stencils(nu), "spline": _spline_stencils(nu)}
+        self._E_op = _lagrange_stencils(grid.E_kPa)
+        self._E_coef = self._E_op.data_coef(grid.E_kPa)  # polynomial sum_j L_j(E) E_j per interval
+        self._depth = {}  # depth_interp -> (stencils, coefficients (n_int, K, n_nu) of g)
+
+    # ------------------------------------------------------------ construction
+    def with_options(self, **options) -> "ResponseSurface":
+        """A copy with other ``method``, ``depth_interp`` or ``scaling``."""
+        kw = {"method": self.method, "depth_interp": self.depth_interp, "scaling": self.scaling, **options}
+        return type(self)(self.grid, self._f, settings=self.settings, failures=self.failures, **kw)
+
+    @classmethod
+    def build(cls, grid: SurfaceGrid, unit_curve: UnitCurve | None = None, settings: Mapping | None = None,
+              cache_dir: str | os.PathLike | None = None, workers: int | None = None,
+              progress: bool = True, **options) -> "ResponseSurface":
+        """Run the unit curve once per nu and assemble the surface.
+
+        Parameters
+        ----------
+        grid : SurfaceGrid
+            Nodes of the surface.
+        unit_curve : callable, optional
+            ``unit_curve(nu, depth_mm) -> force_mN`` at E = 1 kPa. Default: the FE model
+            (:func:`default_unit_curve` of ``settings``). Must be picklable (module-level
+            function, or ``functools.partial`` of one) for ``workers > 1``.
+        settings : mapping, optional
+            Description of the forward model; it keys the cache, so it must change
+            whenever the unit curve's results would. Default: :func:`default_settings`
+            for the FE curve, else the callable's qualified name and partial arguments.
+        cache_dir : path, optional
+            If given, each finished run is written at once (atomically) to
+            ``cache_dir/runs/<key>/nu_<nu>.npz``, keyed by the settings and depths, and
+            a rerun (after a crash or kill) only computes the missing nu. Failed runs
+            are not stored and are retried. Default: nothing is written.
+        workers : int, optional
+            Local processes; default ``min(cpu_count, runs to do)``, or 1 if
+            ``unit_curve`` cannot be pickled.
+        progress : bool
+            Show a tqdm progress bar (stderr).
+        **options
+            ``method``, ``depth_interp``, ``scaling`` of the returned surface.
+
+        Returns
+        -------
+        ResponseSurface
+            A failed run (``unit_curve`` raised or returned bad values) leaves its
+            column NaN, is listed in ``failures`` and is reported by a RuntimeWarning.
+        """
+        unit_curve, settings = _resolve_model(unit_curve, settings)
+        depth = np.array(grid.depth_mm)
+        f = np.full((depth.size, grid.nu.size), np.nan)
+        run_dir, key = None, _run_key(settings, depth)
+        todo = list(range(grid.nu.size))
+        if cache_dir is not None:
+            run_dir = Path(cache_dir) / "runs" / key[:24]
+            run_dir.mkdir(parents=True, exist_ok=True)
+            info = run_dir / "settings.json"  # for humans
+            if not info.exists():
+                _atomic_write(info, lambda fh: fh.write(
+                    json.dumps({"settings": settings, "depth_mm": depth.tolist()}, indent=1).encode()))
+            for k in list(todo):
+                done = _read_run(_run_path(run_dir, grid.nu[k]), float(grid.nu[k]), depth, key)
+                if done is not None:
+                    f[:, k] = done
+                    todo.remove(k)
+        failures = {}
+
+        def record(k, nu, values, reason):
+            if values is None:
+                failures[float(nu)] = reason
+                warnings.warn(f"forward run at nu = {nu:g} failed ({reason}); column left missing",
+                              RuntimeWarning, stacklevel=3)
+                return
+            f[:, k] = values
+            if run_dir is not None:
+                _atomic_savez(_run_path(run_dir, nu), unit_force_mN=values, depth_mm=depth,
+                              nu=np.float64(nu), key=np.array(key))
+
+        _execute(unit_curve, grid.nu, todo, depth, workers, progress, record)
+        return cls(grid, f, settings=settings, failures=failures, **options)
+
+    # ------------------------------------------------------------ persistence
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the surface to ``path`` (npz with JSON metadata), atomically."""
+        meta = {"format": _FORMAT, "version": _FORMAT_VERSION, "hash": self.hash, "settings": self.settings,
+                "failures": [[nu, why] for nu, why in self.failures.items()],
+                "options": {"method": self.method, "depth_interp": self.depth_interp, "scaling": self.scaling}}
+        path = Path(path)
+        _atomic_savez(path, depth_mm=self.grid.depth_mm, E_kPa=self.grid.E_kPa, nu=self.grid.nu,
+                      unit_force_mN=self._f, meta=np.array(_canonical_json(meta)))
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike, **options) -> "ResponseSurface":
+        """Read a surface written by :meth:`save`; checks the stored hash.
+
+        Parameters
+        ----------
+        path : path
+            The npz file.
+        **options
+            Override the stored ``method``, ``depth_interp``, ``scaling``.
+        """
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+            if meta.get("format") != _FORMAT or meta.get("version") != _FORMAT_VERSION:
+                raise ValueError(f"{path}: not a response surface of format version {_FORMAT_VERSION}")
+            grid = SurfaceGrid(z["depth_mm"], z["E_kPa"], z["nu"])
+            out = cls(grid, z["unit_force_mN"], settings=meta["settings"], failures=dict(meta["failures"]),
+                      **{**meta["options"], **options})
+        if out.hash != meta["hash"]:
+            raise ValueError(f"{path}: stored hash does not match its settings and grid (file edited?)")
+        return out
+
+    @classmethod
+    def load_or_build(cls, grid: SurfaceGrid, settings: Mapping | None = None,
+                      unit_curve: UnitCurve | None = None, *, path: str | os.PathLike | None = None,
+                      cache_dir: str | os.PathLike | None = None, workers: int | None = None,
+                      progress: bool = True, **options) -> "ResponseSurface":
+        """Reuse a stored surface if its hash matches ``settings`` and ``grid``, else build.
+
+        A stored surface with failed runs is rebuilt (finished runs are reused from the
+        run cache, failed ones retried). Forward runs depend only on the settings, the
+        depths and nu, so changing the E grid or adding nu values reuses earlier runs.
+
+        Parameters
+        ----------
+        grid, settings, unit_curve, workers, progress, **options
+            As in :meth:`build` (``settings`` default as there).
+        path : path, optional
+            Surface file; default ``cache_dir/surfaces/<hash>.npz``.
+        cache_dir : path, optional
+            Root of the run cache; default :func:`default_cache_dir`.
+        """
+        unit_curve, settings = _resolve_model(unit_curve, settings)
+        cache_dir = default_cache_dir() if cache_dir is None else Path(cache_dir)
+        key = settings_hash(settings, grid)
+        path = cache_dir / "surfaces" / f"{key[:24]}.npz" if path is None else Path(path)
+        if path.exists():
+            try:
+                stored = cls.load(path, **options)
+            except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile):  # unreadable: rebuild
+                stored = None
+            if stored is not None and stored.hash == key and stored.complete:
+                return stored
+        out = cls.build(grid, unit_curve, settings, cache_dir=cache_dir, workers=workers,
+                        progress=progress, **options)
+        out.save(path)
+        return out
+
+    # ------------------------------------------------------------ properties
+    @property
+    def unit_forces(self) -> np.ndarray:
+        """f(h; nu), force (mN) at E = 1 kPa, shape (n_depth, n_nu); NaN = failed run."""
+        return self._f
+
+    @property
+    def forces(self) -> np.ndarray:
+        """F = E f at the nodes (mN), shape (n_depth, n_E, n_nu)."""
+        return self._f[:, None, :] * self.grid.E_kPa[None, :, None]
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(lower, upper)`` of ``(E_kPa, nu)``, the grid box."""
+        g = self.grid
+        return np.array([g.E_kPa[0], g.nu[0]]), np.array([g.E_kPa[-1], g.nu[-1]])
+
+    @property
+    def depth_range(self) -> tuple[float, float]:
+        """Valid depths (mm): ``0 < h <= depth_range[1]``; with ``scaling="none"``,
+        ``depth_range[0] <= h <= depth_range[1]`` (the nodes' span)."""
+        h = self.grid.depth_mm
+        return (float(h[0]) if self.scaling == "none" else 0.0), float(h[-1])
+
+    @property
+    def complete(self) -> bool:
+        """True if no forward run failed."""
+        return not self._missing.any()
+
+    def __repr__(self):
+        g = self.grid
+        return (f"ResponseSurface({g.depth_mm.size} depths {g.depth_mm[0]:g}-{g.depth_mm[-1]:g} mm x "
+                f"{g.E_kPa.size} E {g.E_kPa[0]:g}-{g.E_kPa[-1]:g} kPa x {g.nu.size} nu "
+                f"{g.nu[0]:g}-{g.nu[-1]:g}, {len(self.failures)} failed, hash {self.hash[:12]})")
+
+    # ------------------------------------------------------------ evaluation
+    def _depth_op(self, kind):
+        if kind not in self._depth:
+            op = _DEPTH_BUILDERS[kind](self.grid.depth_mm)
+            # missing columns -> 0 (never weighted: evaluate checks the nu stencil first)
+            self._depth[kind] = op, np.nan_to_num(op.data_coef(self._g), nan=0.0)
+        return self._depth[kind]
+
+    def _check_param(self, name, value, nodes, unit, extrapolate):
+        lo, hi = nodes[0], nodes[-1]
+        tol = _RTOL_BOUNDS * max(hi - lo, abs(hi))
+        if not np.isfinite(value) or (not extrapolate and not lo - tol <= value <= hi + tol):
+            raise ValueError(f"{name} = {value:g} is outside the response surface [{lo:g}, {hi:g}]{unit} "
+                             "(extrapolate=True evaluates outside)")
+
+    def evaluate(self, depth_mm, theta, *, method: str | None = None, depth_interp: str | None = None,
+                 extrapolate: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Force and its gradient in one call (what an EKF step needs).
+
+        Parameters
+        ----------
+        depth_mm : array_like
+            Depths h (mm) within :attr:`depth_range`. Below the first node the smooth
+            scaled variable is extrapolated (not allowed with ``scaling="none"``).
+        theta : array_like, shape (2,)
+            ``(E_kPa, nu)``.
+        method, depth_interp : str, optional
+            Override the surface defaults.
+        extrapolate : bool
+            Allow (E, nu) outside the grid box (end stencils are extended) and depths
+            beyond the last node; depths <= 0 then give zero force and gradient.
+
+        Returns
+        -------
+        force : numpy.ndarray, shape of ``depth_mm``
+            F (mN).
+        jacobian : numpy.ndarray, shape ``depth_mm.shape + (2,)``
+            dF/dE (mN/kPa) and dF/dnu (mN).
+
+        Raises
+        ------
+        ValueError
+            A parameter or depth outside the surface, or an interpolation that needs
+            the column of a failed run.
+        """
+        method = self.method if method is None else _check_choice("method", method, METHODS)
+        depth_interp = self.depth_interp if depth_interp is None else _check_choice(
+            "depth_interp", depth_interp, DEPTH_INTERPS)
+        th = np.asarray(theta, dtype=float)
+        if th.shape != (2,):
+            raise ValueError(f"theta must be (E_kPa, nu), got shape {th.shape}")
+        E, nu = float(th[0]), float(th[1])
+        g = self.grid
+        self._check_param("E_kPa", E, g.E_kPa, " kPa", extrapolate)
+        self._check_param("nu", nu, g.nu, "", extrapolate)
+        if not -1.0 < nu < 1.0:
+            raise ValueError(f"nu = {nu:g} is outside (-1, 1)")
+        h_in = np.asarray(depth_mm, dtype=float)
+        h = h_in.ravel()
+        if h.size:
+            lo, hi = h.min(), h.max()
+            if not (np.isfinite(lo) and np.isfinite(hi)):
+                raise ValueError("depth_mm must be finite")
+            hmin, hmax = self.depth_range
+            if not extrapolate and (lo <= 0 or lo < hmin * (1 - _RTOL_BOUNDS) or hi > hmax * (1 + _RTOL_BOUNDS)):
+                bad, valid = (hi if hi > hmax else lo), (f"({hmin:g}" if hmin == 0 else f"[{hmin:g}")
+                raise ValueError(f"depth_mm = {bad:g} is outside the response surface {valid}, {hmax:g}] mm "
+                                 "(extrapolate=True evaluates outside)")
+        contact = None
+        if extrapolate and h.size and lo <= 0:
+            contact = h > 0
+            h = np.where(contact, h, g.depth_mm[0])
+        # weights of the nu nodes, then the per-interval depth polynomials of g contracted
+        # with them: g(h, nu) = sum_k t^k sum_c D[i, k, c] w_c(nu)
+        cols, w, dw = self._nu_ops[method].weights(nu)
+        if self._missing[cols].any():
+            bad = g.nu[cols][self._missing[cols]]
+            why = "; ".join(self.failures.get(float(x), "?") for x in bad)
+            raise ValueError(f"nu = {nu:g} ({method} interpolation) needs the column nu = "
+                             f"{', '.join(f'{x:g}' for x in bad)} whose forward run failed ({why})")
+        wn = np.zeros((g.nu.size, 2))
+        wn[cols, 0] = w
+        wn[cols, 1] = dw
+        op, coef = self._depth_op(depth_interp)
+        i, tp = op.locate(h, deriv=False)
+        gv = (tp[:, None, :] @ (coef[i] @ wn))[:, 0, :]  # (m, 2): g, dg/dnu at (h, nu)
+        if method == "lagrange":  # E-direction of the bicubic: sum_j L_j(E) E_j (= E exactly)
+            k, tpe, dtpe = self._E_op.locate_scalar(E)
+            e, de = float(tpe @ self._E_coef[k]), float(dtpe @ self._E_coef[k])
+        else:
+            e, de = E, 1.0
+        if self.scaling == "hertz":
+            s_nu = 1.0 / (1.0 - nu * nu)
+            ds_nu = 2.0 * nu * s_nu * s_nu
+        else:
+            s_nu, ds_nu = 1.0, 0.0
+        # [F, dF/dE, dF/dnu] = s_h(h) [g, dg/dnu] @ m
+        m = np.array([[e * s_nu, de * s_nu, e * ds_nu], [0.0, 0.0, e * s_nu]])
+        out = gv @ m
+        if self.scaling != "none":
+            out *= (h * np.sqrt(h))[:, None]
+        if contact is not None:
+            out[~contact] = 0.0
+        return out[:, 0].reshape(h_in.shape), out[:, 1:].reshape(h_in.shape + (2,))
+
+    def force(self, depth_mm, theta, method: str | None = None, **kwargs) -> np.ndarray:
+        """Interpolated force F(h; E, nu) (mN); arguments as in :meth:`evaluate`."""
+        return self.evaluate(depth_mm, theta, method=method, **kwargs)[0]
+
+    __call__ = force
+
+    def jacobian(self, depth_mm, theta, method: str | None = None, **kwargs) -> np.ndarray:
+        """``[dF/dE (mN/kPa), dF/dnu (mN)]``, shape ``(n_depth, 2)``; as in :meth:`evaluate`."""
+        return self.evaluate(depth_mm, theta, method=method, **kwargs)[1]

@@ -1,0 +1,208 @@
+"""The seam between the mechanics and everything else: :func:`simulate`.
+
+Response surfaces, inversion and diagnosis reach the finite-element model only
+through this module, so they can be tested against :mod:`skin_indent.analytic`
+without running finite elements.
+
+Example
+-------
+>>> from skin_indent import simulate, NeoHooke, SphericalIndenter
+>>> curve = simulate(NeoHooke(E_kPa=10, nu=0.4), SphericalIndenter(6.22), depth_mm=0.6, points=100)
+>>> curve.depth_mm[0], curve.depth_mm[-1]          # doctest: +SKIP
+(0.006, 0.6)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .mechanics.contact import SphericalIndenter
+from .mechanics.materials import Material, NeoHooke
+from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh
+from .mechanics.solver import IndentationProblem, NewtonReport
+
+#: Dimensionless contact penalty: epsilon = PENALTY * E / sqrt(R h_max) (kPa/mm).
+#: Keeps the penetration below ~0.05% of the depth (checked in the tests).
+PENALTY = 3.6e4
+#: Newton tolerance on the residual relative to the contact force vector; 1e-6
+#: changes the force by < 1e-6 relative against 1e-10 (measured).
+RTOL = 1e-6
+#: Increments for path-independent laws; the force between them is interpolated.
+DEFAULT_INCREMENTS = 24
+
+
+@dataclass
+class ForceDepthCurve:
+    """A simulated force-depth curve.
+
+    Attributes
+    ----------
+    depth_mm : ndarray
+        Depths of the sphere below the undeformed surface, mm.
+    force_mN : ndarray
+        Force on the sphere, mN.
+    material : Material
+    indenter : SphericalIndenter
+    mesh_name : str
+        Which mesh was used and how it was obtained.
+    report : NewtonReport
+        Newton statistics.
+    solved_depth_mm : ndarray
+        Depths at which equilibrium was solved. When fewer than ``depth_mm``
+        (path-independent laws), the force in between comes from a cubic spline of
+        the smooth ratio F / h^1.5 (Hertz: F ~ h^1.5).
+    """
+
+    depth_mm: np.ndarray
+    force_mN: np.ndarray
+    material: Material
+    indenter: SphericalIndenter
+    mesh_name: str
+    report: NewtonReport
+    solved_depth_mm: np.ndarray
+    _state: tuple | None = field(default=None, repr=False)
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write ``depth_mm,force_mN`` to ``path``."""
+        path = Path(path)
+        data = np.column_stack([self.depth_mm, self.force_mN])
+        np.savetxt(path, data, delimiter=",", header="depth_mm,force_mN", comments="", fmt="%.10g")
+        return path
+
+    def write_vtu(self, path: str | Path) -> Path:
+        """Write the deformed mesh and fields at the deepest depth (needs ``keep_state=True``)."""
+        if self._state is None:
+            raise ValueError("no field state kept: call simulate(..., keep_state=True)")
+        from .mechanics.fields import write_vtu
+
+        problem, u, depth = self._state
+        return write_vtu(problem, u, depth, path)
+
+
+def output_depths(depth_mm: float, points: int) -> np.ndarray:
+    """``points`` equally spaced depths from ``depth_mm / points`` to ``depth_mm`` (mm)."""
+    return depth_mm * np.arange(1, points + 1) / points
+
+
+def _check_depths(depth_mm, points) -> np.ndarray:
+    if np.ndim(depth_mm) == 0:
+        d = float(depth_mm)
+        if not math.isfinite(d) or d <= 0:
+            raise ValueError(f"depth must be a finite number > 0 mm, got {depth_mm!r}")
+        if not isinstance(points, (int, np.integer)) or points < 2:
+            raise ValueError(f"points must be an integer >= 2, got {points!r}")
+        return output_depths(d, int(points))
+    d = np.asarray(depth_mm, dtype=float)
+    if d.ndim != 1 or d.size < 2:
+        raise ValueError("depths must be a 1-D array of at least 2 values")
+    if not np.all(np.isfinite(d)) or np.any(d <= 0) or np.any(np.diff(d) <= 0):
+        raise ValueError("depths must be finite, > 0 mm and strictly increasing")
+    return d
+
+
+def _mesh_for(mesh, indenter: SphericalIndenter, max_depth: float) -> IndentationMesh:
+    if isinstance(mesh, IndentationMesh):
+        return mesh
+    if isinstance(mesh, (str, Path)) and Path(mesh).suffix:
+        return load_mesh(mesh)
+    return graded_mesh(indenter.radius_mm, max_depth, mesh)
+
+
+def simulate(material: Material, indenter: SphericalIndenter | None = None, depth_mm=0.6, points: int = 100,
+             *, mesh=DEFAULT_MESH, increments: int | None = None, penalty: float = PENALTY, rtol: float = RTOL,
+             keep_state: bool = False, progress=None) -> ForceDepthCurve:
+    """Simulate the indentation of a half-space by a rigid sphere.
+
+    Parameters
+    ----------
+    material : Material
+        Constitutive law of the half-space (e.g. :class:`NeoHooke`).
+    indenter : SphericalIndenter, optional
+        The sphere (default radius 6.22 mm).
+    depth_mm : float or array_like
+        Largest depth in mm (with ``points``), or the increasing depths themselves.
+    points : int
+        Number of equally spaced output depths when ``depth_mm`` is a number.
+    mesh : str, path or IndentationMesh
+        ``"coarse"``, ``"medium"`` (default) or ``"fine"`` (built for this radius
+        and depth), a mesh file, or a mesh object.
+    increments : int, optional
+        Number of solved increments. Default: every output depth for
+        path-dependent laws, ``min(points, 24)`` geometrically spaced ones for
+        path-independent (elastic, frictionless) laws.
+    penalty : float
+        Dimensionless contact penalty (epsilon = penalty * E / sqrt(R h_max)).
+    rtol : float
+        Newton tolerance.
+    keep_state : bool
+        Keep the final displacement field so that :meth:`ForceDepthCurve.write_vtu` works.
+    progress : callable, optional
+        ``progress(i, n)`` after each solved increment.
+
+    Returns
+    -------
+    ForceDepthCurve
+
+    Raises
+    ------
+    ValueError
+        Bad input (one-line message).
+    skin_indent.mechanics.solver.ConvergenceError
+        Newton's method failed even with step cutting.
+    """
+    if not isinstance(material, Material):
+        raise ValueError(f"material must be a skin_indent Material, got {type(material).__name__}")
+    indenter = indenter or SphericalIndenter()
+    depths = _check_depths(depth_mm, points)
+    imesh = _mesh_for(mesh, indenter, depths[-1])
+    problem = IndentationProblem(imesh, material, indenter, depths[-1], penalty=penalty, rtol=rtol)
+    if increments is None:
+        n_solve = depths.size if not material.path_independent else min(depths.size, DEFAULT_INCREMENTS)
+    else:
+        if not isinstance(increments, (int, np.integer)) or increments < 2:
+            raise ValueError(f"increments must be an integer >= 2, got {increments!r}")
+        n_solve = min(int(increments), depths.size)
+    if n_solve == depths.size:
+        solved = depths
+    elif not material.path_independent:
+        raise ValueError(f"{material.name} is path dependent: it must be solved at every output depth")
+    else:
+        # geometric spacing: dense where F changes fastest (relatively), and a constant
+        # depth ratio lets the self-similar predictor work (see mechanics.predictor)
+        solved = np.geomspace(depths[0], depths[-1], n_solve)
+    cb = (lambda i: progress(i, solved.size)) if progress else None
+    forces, u, report = problem.solve(solved, progress=cb)
+    if solved is depths:
+        out = forces
+    else:
+        # F / h^1.5 is smooth and finite as h -> 0 (Hertz), so a cubic spline of it is
+        # accurate down to the smallest depths; the result is linear in the forces.
+        ratio = CubicSpline(solved, forces / solved**1.5, bc_type="not-a-knot")
+        out = ratio(depths) * depths**1.5
+    state = (problem, u, float(solved[-1])) if keep_state else None
+    return ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, state)
+
+
+def fe_unit_curve(nu: float, depth_mm, *, radius_mm: float = 6.22, mesh: str = DEFAULT_MESH) -> np.ndarray:
+    """Force (mN) of a neo-Hookean half-space with E = 1 kPa at the given depths.
+
+    The force of this law is exactly proportional to E at fixed nu, so response
+    surfaces store this unit curve once per nu and multiply by E.
+
+    Parameters
+    ----------
+    nu : float
+        Poisson's ratio.
+    depth_mm : array_like
+        Increasing depths, mm.
+    radius_mm : float
+        Sphere radius, mm.
+    mesh : str
+        Mesh family member.
+    """
+    return simulate(NeoHooke(1.0, nu), SphericalIndenter(radius_mm), np.asarray(depth_mm, float), mesh=mesh).force_mN
