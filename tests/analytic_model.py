@@ -31,6 +31,8 @@ class HertzLikeModel:
 
     parameter_names: tuple[str, ...] = ("E_kPa", "nu")
 
+    nu_coefficient: float = 0.3  # d c / d(0.5 - nu); 0 gives pure Hertz in E* (nu not identifiable)
+
     def __init__(self, radius_mm=6.22, lower=(1.0, 0.2), upper=(100.0, 0.49)):
         self.radius_mm = float(radius_mm)
         self.bounds = (np.asarray(lower, float), np.asarray(upper, float))
@@ -50,7 +52,7 @@ class HertzLikeModel:
         h = np.maximum(np.asarray(depth_mm, float), 0.0)
         R = self.radius_mm
         g = (4.0 / 3.0 * np.sqrt(R)) * h**1.5
-        c = 0.15 + 0.3 * (0.5 - nu)
+        c = 0.15 + self.nu_coefficient * (0.5 - nu)
         k = 1.0 / (1.0 - nu * nu)
         s = 1.0 - (c / R) * h
         return E, nu, h, R, g, k, s
@@ -65,5 +67,11 @@ class HertzLikeModel:
         E, nu, h, R, g, k, s = self._parts(depth_mm, theta)
         out = np.empty(h.shape + (2,))
         out[..., 0] = k * g * s
-        out[..., 1] = E * g * ((2.0 * nu * k * k) * s + (k * 0.3 / R) * h)
+        out[..., 1] = E * g * ((2.0 * nu * k * k) * s + (k * self.nu_coefficient / R) * h)
         return out
+
+
+class PureHertzModel(HertzLikeModel):
+    """Same, but the correction does not depend on nu: F depends on E* only."""
+
+    nu_coefficient = 0.0

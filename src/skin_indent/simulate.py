@@ -52,10 +52,10 @@ class ForceDepthCurve:
         Which mesh was used and how it was obtained.
     report : NewtonReport
         Newton statistics.
-    solved_depth_mm : ndarray
-        Depths at which equilibrium was solved. When fewer than ``depth_mm``
-        (path-independent laws), the force in between comes from a cubic spline of
-        the smooth ratio F / h^1.5 (Hertz: F ~ h^1.5).
+    solved_depth_mm, solved_force_mN : ndarray
+        Depths (mm) at which equilibrium was solved and the forces there (mN). For
+        path-independent laws these are geometrically spaced and the output forces
+        come from a cubic spline of the smooth ratio F / h^1.5 (Hertz: F ~ h^1.5).
     """
 
     depth_mm: np.ndarray
@@ -65,6 +65,7 @@ class ForceDepthCurve:
     mesh_name: str
     report: NewtonReport
     solved_depth_mm: np.ndarray
+    solved_force_mN: np.ndarray
     _state: tuple | None = field(default=None, repr=False)
 
     def to_csv(self, path: str | Path) -> Path:
@@ -114,8 +115,9 @@ def _mesh_for(mesh, indenter: SphericalIndenter, max_depth: float) -> Indentatio
 
 
 def simulate(material: Material, indenter: SphericalIndenter | None = None, depth_mm=0.6, points: int = 100,
-             *, mesh=DEFAULT_MESH, increments: int | None = None, penalty: float = PENALTY, rtol: float = RTOL,
-             keep_state: bool = False, progress=None) -> ForceDepthCurve:
+             *, mesh=DEFAULT_MESH, increments: int | None = None, solve_at_outputs: bool = False,
+             penalty: float = PENALTY, rtol: float = RTOL, keep_state: bool = False,
+             progress=None) -> ForceDepthCurve:
     """Simulate the indentation of a half-space by a rigid sphere.
 
     Parameters
@@ -132,9 +134,12 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         ``"coarse"``, ``"medium"`` (default) or ``"fine"`` (built for this radius
         and depth), a mesh file, or a mesh object.
     increments : int, optional
-        Number of solved increments. Default: every output depth for
-        path-dependent laws, ``min(points, 24)`` geometrically spaced ones for
-        path-independent (elastic, frictionless) laws.
+        Number of solved increments for path-independent (elastic, frictionless)
+        laws, geometrically spaced from ``min(h_1, h_max / 100)`` to ``h_max``
+        (default 24); the force at the output depths is interpolated.
+    solve_at_outputs : bool
+        Solve equilibrium exactly at the output depths instead (always the case for
+        path-dependent laws).
     penalty : float
         Dimensionless contact penalty (epsilon = penalty * E / sqrt(R h_max)).
     rtol : float
@@ -161,20 +166,17 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     depths = _check_depths(depth_mm, points)
     imesh = _mesh_for(mesh, indenter, depths[-1])
     problem = IndentationProblem(imesh, material, indenter, depths[-1], penalty=penalty, rtol=rtol)
-    if increments is None:
-        n_solve = depths.size if not material.path_independent else min(depths.size, DEFAULT_INCREMENTS)
-    else:
-        if not isinstance(increments, (int, np.integer)) or increments < 2:
-            raise ValueError(f"increments must be an integer >= 2, got {increments!r}")
-        n_solve = min(int(increments), depths.size)
-    if n_solve == depths.size:
+    if solve_at_outputs or not material.path_independent:
+        if increments is not None and not solve_at_outputs:
+            raise ValueError(f"{material.name} is path dependent: it is solved at every output depth")
         solved = depths
-    elif not material.path_independent:
-        raise ValueError(f"{material.name} is path dependent: it must be solved at every output depth")
     else:
+        n_solve = DEFAULT_INCREMENTS if increments is None else increments
+        if not isinstance(n_solve, (int, np.integer)) or n_solve < 2:
+            raise ValueError(f"increments must be an integer >= 2, got {increments!r}")
         # geometric spacing: dense where F changes fastest (relatively), and a constant
         # depth ratio lets the self-similar predictor work (see mechanics.predictor)
-        solved = np.geomspace(depths[0], depths[-1], n_solve)
+        solved = np.geomspace(min(depths[0], depths[-1] / 100.0), depths[-1], int(n_solve))
     cb = (lambda i: progress(i, solved.size)) if progress else None
     forces, u, report = problem.solve(solved, progress=cb)
     if solved is depths:
@@ -185,7 +187,7 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         ratio = CubicSpline(solved, forces / solved**1.5, bc_type="not-a-knot")
         out = ratio(depths) * depths**1.5
     state = (problem, u, float(solved[-1])) if keep_state else None
-    return ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, state)
+    return ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state)
 
 
 def fe_unit_curve(nu: float, depth_mm, *, radius_mm: float = 6.22, mesh: str = DEFAULT_MESH) -> np.ndarray:

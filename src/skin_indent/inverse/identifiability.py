@@ -292,52 +292,59 @@ def hertz_equivalence(model, depth, force, *, x0=None, modulus: str = "E_kPa", p
 
     Notes
     -----
-    With C the (E, nu) block of the least-squares covariance and
-    ``g = dE*/d(E, nu) = (1/(1-nu^2), 2 nu E/(1-nu^2)^2)``, the covariance in
-    (E*, nu) is ``A C A^T`` with ``A = [[g_E, g_nu], [0, 1]]``; conditional
-    standard deviations are ``1/sqrt(info_nn)`` with ``info`` the inverse of the
-    respective 2x2 covariance.
+    Works on the Fisher information ``I = J^T J / sigma^2`` at the least-squares
+    estimate (finite even when nu is not identifiable at all), in (E, nu) and in
+    (E*, nu) (Jacobian ``J T`` with ``T = d(E, nu)/d(E*, nu)``). Conditional
+    standard deviations are ``1/sqrt(I_nn)``, marginal ones use the Schur
+    complement; other free parameters are marginalised out.
     """
     fixed = dict(fixed or {})
     for nm in (modulus, poisson):
         if nm in fixed:
             raise ValueError(f"{nm!r} must be free for hertz_equivalence")
-    fit = fit_least_squares(model, depth, force, _centre(model) if x0 is None else x0, fixed=fixed,
-                            noise_mN=noise_mN)
-    if modulus not in fit.free_names or poisson not in fit.free_names:
-        raise ValueError(f"model needs free parameters {modulus!r} and {poisson!r}; has {fit.free_names}")
-    ie, iv = fit.free_names.index(modulus), fit.free_names.index(poisson)
-    C = fit.covariance[np.ix_([ie, iv], [ie, iv])]
+    start = _centre(model) if x0 is None else x0
+    problem = make_problem(model, depth, force, start, fixed)
+    if modulus not in problem.free_names or poisson not in problem.free_names:
+        raise ValueError(f"model needs free parameters {modulus!r} and {poisson!r}; has {problem.free_names}")
+    fit = fit_least_squares(model, problem.depth, problem.force_mN, problem.params, fixed=fixed, noise_mN=noise_mN)
+    sigma = fit.noise_mN
     E, nu = fit.parameters[modulus], fit.parameters[poisson]
     k = 1.0 / (1.0 - nu * nu)
-    A = np.array([[k, 2.0 * nu * E * k * k], [0.0, 1.0]])
-    Cs = A @ C @ A.T
+    E_star = E * k
+    # Jacobian columns (E, nu) and (E*, nu); other free parameters are marginalised
+    # out of the information (Schur complement).
+    x = np.array([fit.parameters[nm] for nm in problem.free_names])
+    J = problem.model_jacobian(x) / sigma
+    ie, iv = problem.free_names.index(modulus), problem.free_names.index(poisson)
+    rest = [i for i in range(J.shape[1]) if i not in (ie, iv)]
+    T = np.array([[1.0 - nu * nu, -2.0 * nu * E_star], [0.0, 1.0]])  # d(E, nu) / d(E*, nu)
+    J2 = J[:, [ie, iv]]
+    info, info_s = _schur(J2, J[:, rest]), _schur(J2 @ T, J[:, rest])
+    tiny = np.finfo(float).eps * max(info[0, 0], info[1, 1], 1e-300)
 
-    def _cond_std(cov):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            det = cov[0, 0] * cov[1, 1] - cov[0, 1] ** 2
-            return math.sqrt(det / cov[0, 0]) if cov[0, 0] > 0 and det > 0 else 0.0
+    def _marg(I, a, b):
+        # marginal sd of entry a: 1 / sqrt(I_aa - I_ab^2 / I_bb)
+        s_aa = I[a, a] - (I[a, b] ** 2 / I[b, b] if I[b, b] > tiny else 0.0)
+        return 1.0 / math.sqrt(s_aa) if s_aa > tiny * 1e-6 else math.inf
 
-    def _corr(cov):
-        d = math.sqrt(cov[0, 0] * cov[1, 1]) if cov[0, 0] > 0 and cov[1, 1] > 0 else 0.0
-        return float(cov[0, 1] / d) if d > 0 else math.nan
+    def _corr(I):
+        d = math.sqrt(I[0, 0] * I[1, 1])
+        return float(-I[0, 1] / d) if d > tiny else 0.0
 
-    # relative conditioning: det can underflow for the near-singular (E, nu) block, use the
-    # unscaled correlation-based formula: var(nu | other) = var(nu) (1 - rho^2)
-    rho, rho_s = _corr(C), _corr(Cs)
-    nu_std = math.sqrt(max(C[1, 1], 0.0))
-    given_E = nu_std * math.sqrt(max(1.0 - rho * rho, 0.0)) if math.isfinite(rho) else _cond_std(C)
-    given_Es = nu_std * math.sqrt(max(1.0 - rho_s * rho_s, 0.0)) if math.isfinite(rho_s) else _cond_std(Cs)
-    frac = 1.0 - (given_E / given_Es) ** 2 if given_Es > 0 else 1.0
-    prof = profile(model, depth, force, poisson, x0=dict(fit.parameters), fixed=fixed,
-                   noise_mN=noise_mN if noise_mN is not None else fit.noise_mN, n_values=n_values)
+    rho, rho_s = _corr(info), _corr(info_s)
+    nu_std = _marg(info, 1, 0)
+    given_E = 1.0 / math.sqrt(info[1, 1]) if info[1, 1] > tiny else math.inf
+    given_Es = 1.0 / math.sqrt(info_s[1, 1]) if info_s[1, 1] > tiny * 1e-12 else math.inf
+    frac = 1.0 - info_s[1, 1] / info[1, 1] if info[1, 1] > tiny else math.nan
+    frac = float(min(max(frac, 0.0), 1.0))
+    E_star_std = _marg(info_s, 0, 1) if math.isfinite(given_Es) else 1.0 / math.sqrt(info_s[0, 0])
+    prof = profile(model, depth, force, poisson, x0=dict(fit.parameters), fixed=fixed, noise_mN=sigma,
+                   n_values=n_values)
     e_star = prof.others[modulus] / (1.0 - prof.values**2)
     a, b = prof.interval_95
     inside = (prof.values >= a) & (prof.values <= b) & np.isfinite(e_star)
     sel = e_star[inside] if inside.sum() >= 2 else e_star[np.isfinite(e_star)]
     spread = float((sel.max() - sel.min()) / np.median(sel)) if sel.size >= 2 else 0.0
-    E_star = E * k
-    E_star_std = math.sqrt(max(Cs[0, 0], 0.0))
     summary = (f"E* = {E_star:.4g} +/- {E_star_std:.2g} kPa; corr(E, nu) = {rho:+.6f}; "
                f"nu = {nu:.4g} +/- {nu_std:.2g} (+/- {given_E:.2g} if E known, +/- {given_Es:.2g} if E* known); "
                f"{100 * frac:.2f}% of the nu-information at known E comes only through E*; "
@@ -345,9 +352,18 @@ def hertz_equivalence(model, depth, force, *, x0=None, modulus: str = "E_kPa", p
     return HertzEquivalence(
         E_kPa=E, nu=nu, E_star_kPa=E_star, E_star_std_kPa=E_star_std, correlation_E_nu=rho,
         correlation_E_star_nu=rho_s, nu_std=nu_std, nu_std_given_E=given_E, nu_std_given_E_star=given_Es,
-        fraction_through_E_star=float(frac), profile=prof, E_star_profile=e_star, E_star_spread=spread,
-        noise_mN=prof.noise_mN, summary=summary,
+        fraction_through_E_star=frac, profile=prof, E_star_profile=e_star, E_star_spread=spread,
+        noise_mN=sigma, summary=summary,
     )
+
+
+def _schur(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Information of the columns A with the columns B marginalised out."""
+    I_aa = A.T @ A
+    if B.shape[1] == 0:
+        return I_aa
+    I_ab, I_bb = A.T @ B, B.T @ B
+    return I_aa - I_ab @ np.linalg.pinv(I_bb) @ I_ab.T
 
 
 def _centre(model):

@@ -113,7 +113,7 @@ class AxisymmetricSolid:
         self.n_dofs = b.N
         self.element_dofs = b.element_dofs  # (12, nel)
         nloc = self.element_dofs.shape[0]
-        x = b.global_coordinates().value  # (2, nel, nq)
+        x = np.asarray(b.global_coordinates())  # (2, nel, nq)
         r = x[0]
         self.r = r
         self.dV = 2.0 * np.pi * r * b.dx  # (nel, nq) reference volume of each quadrature point
@@ -122,12 +122,13 @@ class AxisymmetricSolid:
         G = np.zeros((5, nloc, nel, nq))
         for k in range(nloc):
             phi = b.basis[k][0]
-            comp = 0 if np.any(phi.value[0]) else 1
+            value = np.asarray(phi)  # (2, nel, nq): the vector shape function
+            comp = 0 if np.any(value[0]) else 1
             grad = phi.grad[comp]  # (2, nel, nq): d/dr, d/dz of component `comp`
             if comp == 0:
                 G[0, k] = grad[0]
                 G[1, k] = grad[1]
-                G[4, k] = phi.value[0] / r
+                G[4, k] = value[0] / r
             else:
                 G[2, k] = grad[0]
                 G[3, k] = grad[1]

@@ -97,14 +97,14 @@ class SphereContact:
         self.basis = FacetBasis(mesh, ElementVector(element or ElementTriP2()), facets=facets, intorder=intorder)
         b = self.basis
         self.element_dofs = b.element_dofs  # (12, nf)
-        X = b.global_coordinates().value  # (2, nf, nq)
+        X = np.asarray(b.global_coordinates())  # (2, nf, nq)
         self.X = X
         self.dA = 2.0 * np.pi * X[0] * b.dx  # (nf, nq)
         nloc = self.element_dofs.shape[0]
         N = np.zeros((nloc,) + X.shape[1:])
         comp = np.zeros(nloc, dtype=int)
         for k in range(nloc):
-            v = b.basis[k][0].value  # (2, nf, nq)
+            v = np.asarray(b.basis[k][0])  # (2, nf, nq)
             comp[k] = 0 if np.any(v[0]) else 1
             N[k] = v[comp[k]]
         self.N = N

@@ -172,7 +172,8 @@ def save_mesh(imesh: IndentationMesh, path: str | Path) -> None:
 
     path = Path(path)
     m = imesh.mesh
-    meshio.Mesh(m.p.T, [("triangle", m.t.T)]).write(path)
+    points = np.column_stack([m.p.T, np.zeros(m.p.shape[1])])  # VTU wants 3-D points
+    meshio.Mesh(points, [("triangle", m.t.T)]).write(path)
     meta = {
         "name": imesh.name,
         "contact_radius_mm": imesh.contact_radius_mm,

@@ -28,12 +28,13 @@ from .materials import Material
 
 def displacement_gradient(field, r) -> np.ndarray:
     """H (3, 3, ...) of a vector field (a scikit-fem DiscreteField) at radius ``r`` (mm)."""
-    H = np.zeros((3, 3) + field.value.shape[1:])
+    value = np.asarray(field)
+    H = np.zeros((3, 3) + value.shape[1:])
     H[0, 0] = field.grad[0][0]
     H[0, 1] = field.grad[0][1]
     H[1, 0] = field.grad[1][0]
     H[1, 1] = field.grad[1][1]
-    H[2, 2] = field.value[0] / r
+    H[2, 2] = value[0] / r
     return H
 
 

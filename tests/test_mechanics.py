@@ -1,0 +1,215 @@
+"""The finite-element forward model against known answers.
+
+Hertz and Sneddon at small depth, the independent reference curves, the
+scikit-fem statement of the weak form, finite-difference tangents, the exact
+E-scaling, penetration, smoothness, mesh files and bad input.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from skfem import asm
+
+from skin_indent.analytic import hertz_force, sneddon_sphere_force
+from skin_indent.mechanics import (ConvergenceError, IndentationProblem, LinearElastic, NeoHooke,
+                                   SphericalIndenter, graded_mesh, load_mesh)
+from skin_indent.mechanics.weakform import residual_form, tangent_form
+from skin_indent.simulate import simulate
+
+R = 6.22
+ROOT = Path(__file__).parents[1]
+
+
+@pytest.fixture(scope="module")
+def coarse_problem():
+    return IndentationProblem(graded_mesh(R, 0.6, "coarse"), NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6)
+
+
+def smooth_displacement(problem, amplitude=0.02, seed=1):
+    b = problem.solid.basis
+    x = b.doflocs
+    rng = np.random.default_rng(seed)
+    u = amplitude * np.exp(-np.hypot(x[0], x[1]) / 3.0) * (np.sin(x[0]) + 0.3 * rng.standard_normal(b.N))
+    u[~problem.free] = 0.0
+    return u
+
+
+def test_fast_kernel_equals_scikit_fem_weak_form(coarse_problem):
+    prob = coarse_problem
+    b = prob.solid.basis
+    u = smooth_displacement(prob)
+    material = prob.solid.regions[0][1]
+    R_skfem = asm(residual_form(material), b, u=b.interpolate(u))
+    K_skfem = asm(tangent_form(material), b, u=b.interpolate(u))[prob.free][:, prob.free]
+    f, Ke = prob.solid.forces(u)
+    K = prob.pattern.assemble([(prob.solid.element_dofs, Ke)])
+    assert np.abs(f - R_skfem).max() <= 1e-12 * np.abs(R_skfem).max()
+    assert abs(K - K_skfem).max() <= 1e-12 * abs(K_skfem).max()
+
+
+@pytest.mark.parametrize("depth", [0.1, 0.6])
+def test_tangent_equals_finite_difference_of_residual(coarse_problem, depth):
+    prob = coarse_problem
+    u = smooth_displacement(prob, amplitude=0.02)
+    f_int, Ke, f_c, Kc, _ = prob._evaluate(u, depth)
+    assert np.count_nonzero(prob.contact.state(u, depth).pressure_kPa) > 0  # contact active
+    K = prob.pattern.assemble([(prob.solid.element_dofs, Ke), (prob.contact.element_dofs, Kc)])
+    v = np.zeros_like(u)
+    v[prob.free] = np.random.default_rng(2).standard_normal(np.count_nonzero(prob.free))
+    h = 1e-7 * depth
+    rp = sum(prob._evaluate(u + h * v, depth, tangent=False)[i] for i in (0, 2))
+    rm = sum(prob._evaluate(u - h * v, depth, tangent=False)[i] for i in (0, 2))
+    fd = (rp - rm)[prob.free] / (2 * h)
+    assert np.linalg.norm(K @ v[prob.free] - fd) <= 1e-6 * np.linalg.norm(fd)
+
+
+@pytest.mark.parametrize("law", [LinearElastic, NeoHooke])
+@pytest.mark.parametrize("nu", [0.3, 0.49])
+def test_hertz_limit_at_small_depth(law, nu):
+    """h/R <= 0.01: within 1% of Hertz (no volumetric locking at nu = 0.49)."""
+    curve = simulate(law(10.0, nu), SphericalIndenter(R), 0.01 * R, 10)
+    ratio = curve.force_mN / hertz_force(curve.depth_mm, 10.0, nu, R)
+    print(f"{law.name} nu={nu}: F/F_Hertz - 1 =", np.round(ratio - 1, 4))
+    assert np.all(np.abs(ratio - 1) < 0.01)
+    if law is LinearElastic:  # the exact small-strain sphere solution: tighter
+        sneddon = sneddon_sphere_force(curve.depth_mm, 10.0, nu, R)
+        assert np.all(np.abs(curve.force_mN / sneddon - 1) < 0.005)
+
+
+@pytest.mark.parametrize("E, nu", [(8.0, 0.45), (5.0, 0.48)])
+def test_reference_curves_on_default_mesh(reference_curves, E, nu):
+    depth, force_ref = reference_curves[(E, nu)]
+    curve = simulate(NeoHooke(E, nu), SphericalIndenter(R), depth)
+    err = curve.force_mN / force_ref - 1
+    print(f"E={E} nu={nu}: max |err| h>=0.1: {np.abs(err[depth >= 0.1]).max():.2e}, "
+          f"h>=0.05: {np.abs(err[depth >= 0.05]).max():.2e}; {curve.report.summary()}")
+    assert np.abs(err[depth >= 0.1]).max() < 0.005
+    assert np.abs(err[depth >= 0.05]).max() < 0.01
+    assert curve.report.max_penetration_ratio < 1e-3  # penetration below 0.1% of the depth
+
+
+def test_force_is_exactly_proportional_to_E():
+    d = np.linspace(0.02, 0.3, 8)
+    f1 = simulate(NeoHooke(3.7, 0.42), SphericalIndenter(R), d, mesh="coarse").force_mN
+    f2 = simulate(NeoHooke(7.4, 0.42), SphericalIndenter(R), d, mesh="coarse").force_mN
+    assert np.abs(f2 / (2 * f1) - 1).max() < 1e-8
+
+
+def test_interpolated_curve_equals_direct_solves():
+    d = np.linspace(0.06, 0.6, 10)
+    law, ind = NeoHooke(8.0, 0.45), SphericalIndenter(R)
+    fast = simulate(law, ind, d, mesh="coarse")
+    direct = simulate(law, ind, d, mesh="coarse", solve_at_outputs=True)
+    assert fast.solved_depth_mm.size == 24 and direct.solved_depth_mm.size == d.size
+    assert np.abs(fast.force_mN / direct.force_mN - 1).max() < 2e-3
+
+
+def test_force_depth_curve_is_smooth():
+    """Quadrature-integrated contact: no steps when quadrature points enter contact."""
+    curve = simulate(NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6, 100)
+    h, F = curve.solved_depth_mm, curve.solved_force_mN
+    sel = h >= 0.05
+    x = np.sqrt(h[sel])
+    ratio = F[sel] / h[sel] ** 1.5
+    fit = np.polyval(np.polyfit(x, ratio, 5), x)
+    assert np.abs(ratio / fit - 1).max() < 1e-3  # node-by-node contact: 0.5-0.8% steps
+    assert np.all(np.diff(curve.force_mN) > 0)
+
+
+def test_newton_statistics_and_penetration():
+    curve = simulate(NeoHooke(10.0, 0.4), SphericalIndenter(R), 0.6, 100, mesh="coarse")
+    rep = curve.report
+    assert rep.increments == 24 and rep.step_cuts == 0
+    assert rep.mean_iterations < 8
+    assert max(rep.residuals) <= 1e-6
+    assert rep.max_penetration_ratio < 1e-3
+
+
+def test_clear_error_when_newton_cannot_converge():
+    prob = IndentationProblem(graded_mesh(R, 0.6, "coarse"), NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6,
+                              max_iterations=1, max_cuts=1)
+    with pytest.raises(ConvergenceError, match=r"did not converge at depth .* after 1 step cuts"):
+        prob.solve([0.3, 0.6])
+
+
+def test_fields_are_written_with_meshio(tmp_path):
+    import meshio
+
+    curve = simulate(NeoHooke(10.0, 0.4), SphericalIndenter(R), 0.3, 5, mesh="coarse", keep_state=True)
+    path = curve.write_vtu(tmp_path / "fields.vtu")
+    m = meshio.read(path)
+    assert m.cells[0].type == "triangle6"
+    vm = m.cell_data["von_mises_kPa"][0]
+    p = m.point_data["contact_pressure_kPa"]
+    assert np.all(vm >= 0) and vm.max() > 0
+    # the resultant of the nodal pressures is of the order of the force (area weights aside)
+    assert p.max() > 0 and np.count_nonzero(p) >= 3
+    uz = m.point_data["displacement_mm"][:, 1]
+    assert np.isclose(uz.min(), -0.3, rtol=0.01)  # the pole follows the sphere
+
+
+def test_mesh_files_are_what_the_generator_builds():
+    for name in ("coarse", "medium", "fine"):
+        stored = load_mesh(ROOT / "meshes" / f"{name}.vtu")
+        built = graded_mesh(R, 0.6, name)
+        assert np.array_equal(stored.mesh.t, built.mesh.t)
+        assert np.abs(stored.mesh.p - built.mesh.p).max() < 1e-12 * built.extent_mm
+
+
+def test_mesh_file_and_generated_mesh_give_the_same_curve():
+    law, ind = NeoHooke(8.0, 0.45), SphericalIndenter(R)
+    a = simulate(law, ind, 0.6, 10, mesh="coarse")
+    b = simulate(law, ind, 0.6, 10, mesh=ROOT / "meshes" / "coarse.vtu")
+    assert "read from file" in b.mesh_name and "generated" in a.mesh_name
+    assert np.allclose(a.force_mN, b.force_mN, rtol=1e-10)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(depth_mm=0.0), "depth must be"), (dict(depth_mm=-0.1), "depth must be"),
+    (dict(depth_mm=float("nan")), "depth must be"), (dict(points=1), "points must be"),
+    (dict(depth_mm=[0.1, 0.05]), "strictly increasing"), (dict(depth_mm=[0.1, float("nan")]), "finite"),
+    (dict(mesh="huge"), "unknown mesh"), (dict(increments=1), "increments must be"),
+])
+def test_bad_simulation_input(kwargs, match):
+    args = dict(depth_mm=0.6, points=10, mesh="coarse") | kwargs
+    with pytest.raises(ValueError, match=match):
+        simulate(NeoHooke(8.0, 0.45), SphericalIndenter(R), **args)
+
+
+@pytest.mark.parametrize("radius", [0.0, -1.0, float("nan"), float("inf")])
+def test_bad_radius(radius):
+    with pytest.raises(ValueError, match="radius"):
+        SphericalIndenter(radius)
+
+
+@pytest.mark.slow
+def test_mesh_convergence_over_the_family_and_uniform_refinement(reference_curves):
+    """Force at 0.6 mm over the family, and the observed order under uniform refinement."""
+    law, ind = NeoHooke(8.0, 0.45), SphericalIndenter(R)
+    family = {m: simulate(law, ind, [0.3, 0.6], mesh=m, solve_at_outputs=True).force_mN[-1]
+              for m in ("coarse", "medium", "fine")}
+    print("F(0.6 mm) over the family:", family)
+    assert max(family.values()) / min(family.values()) - 1 < 5e-4
+    from skin_indent.mechanics.mesh import IndentationMesh
+
+    base = graded_mesh(R, 0.6, "coarse")
+    forces = []
+    for k in range(3):
+        m = base.mesh.refined(k) if k else base.mesh
+        im = IndentationMesh(_named(m, base.extent_mm),
+                             f"coarse refined {k}x", base.contact_radius_mm, base.surface_size_mm / 2**k,
+                             base.extent_mm)
+        forces.append(simulate(law, ind, [0.3, 0.6], mesh=im, solve_at_outputs=True).force_mN[-1])
+    d1, d2 = abs(forces[0] - forces[1]), abs(forces[1] - forces[2])
+    order = np.log2(d1 / d2)
+    print(f"uniform refinement F(0.6): {forces}; changes {d1 / forces[2]:.1e}, {d2 / forces[2]:.1e} (relative); "
+          f"observed order {order:.1f} (the second change is at the Newton tolerance, so this is a lower bound)")
+    assert abs(forces[2] / reference_curves[(8.0, 0.45)][1][-1] - 1) < 0.005
+    assert d2 < d1 / 4  # at least second order
+
+
+def _named(mesh, L):
+    from skin_indent.mechanics.mesh import _with_named_boundaries
+
+    return _with_named_boundaries(mesh, L)
