@@ -368,7 +368,7 @@ def test_default_model_is_lazy():
     src = str(Path(__file__).parents[1] / "src")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={"PYTHONPATH": src, "PATH": ""}, check=True).stdout
-    assert "'radius_mm': 6.22, 'mesh': 'default'" in out
+    assert "'radius_mm': 6.22, 'mesh': 'medium'" in out
     with pytest.raises(ValueError, match="radius_mm"):
         from skin_indent.response_surface import default_unit_curve
 

@@ -53,7 +53,7 @@ def _source_digest() -> str:
     return h.hexdigest()[:12]
 
 
-def default_settings(radius_mm: float = 6.22, mesh: str = "default") -> dict:
+def default_settings(radius_mm: float = 6.22, mesh: str = "medium") -> dict:
     """Settings of the default finite-element unit curve.
 
     ``code_version`` is the package version plus a digest of ``simulate.py`` and

@@ -1,0 +1,65 @@
+"""Where data enters: force-depth curves, their segments, baseline and contact point.
+
+A :class:`Measurement` is an immutable force-depth curve in package units (depth
+in mm, force in mN, time in s). Read it from a CSV file with :func:`load_csv`,
+build it from arrays with :func:`measurement_from_arrays`, write it with
+:func:`save_csv`.
+
+Three functions describe a raw curve without changing it:
+
+- :func:`find_segments`: approach, hold and retract segments, from the depth
+  (and time) history;
+- :func:`estimate_baseline`: the pre-contact force line (offset, tilt, noise);
+- :func:`find_contact_point` / :func:`estimate_contact_point`: a first guess
+  of the contact depth, which a later joint fit refines.
+
+Nothing is subtracted silently: removing a baseline or moving the depth origin
+is an explicit call (:meth:`Measurement.with_baseline_removed`,
+:meth:`Measurement.with_contact_at`) that returns a new :class:`Measurement`.
+
+Every problem with the input raises :class:`MeasurementError`, whose message is
+one line naming the problem (and the file, line and column where that applies),
+so a command-line tool can print ``str(err)`` as it is.
+
+Import everything from here (``from skin_indent.measurement import load_csv``);
+the modules, in the order data flows through them, are:
+
+- :mod:`._errors`: :class:`MeasurementError`;
+- :mod:`.core`: :class:`Measurement`, :func:`measurement_from_arrays`;
+- :mod:`.csv_io`: :func:`load_csv`, :func:`save_csv` and the accepted column
+  names :data:`DEPTH_COLUMNS`, :data:`FORCE_COLUMNS`, :data:`TIME_COLUMN`;
+- :mod:`.segments`: :class:`Segment`, :func:`find_segments`;
+- :mod:`.contact`: :class:`Baseline`, :func:`estimate_baseline`,
+  :class:`ContactPoint`, :func:`find_contact_point`,
+  :func:`estimate_contact_point`.
+"""
+
+from ._errors import MeasurementError
+from .contact import (
+    Baseline,
+    ContactPoint,
+    estimate_baseline,
+    estimate_contact_point,
+    find_contact_point,
+)
+from .core import Measurement, measurement_from_arrays
+from .csv_io import DEPTH_COLUMNS, FORCE_COLUMNS, TIME_COLUMN, load_csv, save_csv
+from .segments import Segment, find_segments
+
+__all__ = [
+    "DEPTH_COLUMNS",
+    "FORCE_COLUMNS",
+    "TIME_COLUMN",
+    "Baseline",
+    "ContactPoint",
+    "Measurement",
+    "MeasurementError",
+    "Segment",
+    "estimate_baseline",
+    "estimate_contact_point",
+    "find_contact_point",
+    "find_segments",
+    "load_csv",
+    "measurement_from_arrays",
+    "save_csv",
+]
