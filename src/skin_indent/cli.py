@@ -11,6 +11,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 MATERIALS = ("neo-hooke", "linear-elastic")
 
 
@@ -65,6 +67,129 @@ def _run_simulate(args) -> int:
     return 0
 
 
+def _add_surface(sub):
+    p = sub.add_parser("surface", help="response surfaces F(h; E, nu)")
+    ssub = p.add_subparsers(dest="surface_command", metavar="SURFACE_COMMAND")
+    b = ssub.add_parser("build", help="build (or complete) a response surface",
+                        description="Build a neo-Hookean response surface, one finite-element run per nu value "
+                                    "(F is exactly proportional to E). Without --out it goes to the per-user cache "
+                                    "(SKIN_INDENT_CACHE or ~/.cache/skin_indent) where `fit` finds it.")
+    b.add_argument("--E", default="1:100:8:log", help="E grid MIN:MAX:N[:log], kPa (default 1:100:8:log)")
+    b.add_argument("--nu", default="0.2:0.49:6", help="nu grid MIN:MAX:N (default 0.2:0.49:6)")
+    b.add_argument("--depth", type=float, default=0.6, help="largest depth, mm (default 0.6)")
+    b.add_argument("--points", type=int, default=100, help="number of depths (default 100)")
+    b.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
+    b.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    b.add_argument("--out", type=Path, default=None, help="surface file (.npz); default the cache")
+    b.set_defaults(run=_run_surface_build)
+    p.set_defaults(run=lambda args: _missing_subcommand(p))
+
+
+def _missing_subcommand(parser) -> int:
+    parser.print_help(sys.stderr)
+    return 2
+
+
+def _run_surface_build(args) -> int:
+    import time
+
+    from .mechanics.contact import SphericalIndenter
+    from .response_surface import SurfaceGrid, parse_range
+    from .identify import surface_for
+
+    SphericalIndenter(args.radius)  # validates the radius
+    if not (args.depth > 0 and np.isfinite(args.depth)):
+        raise CLIError(f"depth must be a finite number > 0 mm, got {args.depth}")
+    if args.points < 4:
+        raise CLIError(f"points must be an integer >= 4, got {args.points}")
+    grid = SurfaceGrid(depth_mm=args.depth * np.arange(1, args.points + 1) / args.points,
+                       E_kPa=parse_range(args.E), nu=parse_range(args.nu))
+    t = time.perf_counter()
+    surface = surface_for(args.radius, args.depth, grid=grid, path=args.out, workers=args.workers)
+    where = args.out or "the cache"
+    print(f"surface {surface.hash[:12]}: {len(grid.E_kPa)} E x {len(grid.nu)} nu x {len(grid.depth_mm)} depths, "
+          f"R = {args.radius:g} mm, ready in {time.perf_counter() - t:.1f} s ({where})")
+    if surface.failures:
+        for nu, reason in surface.failures.items():
+            print(f"  nu = {nu:g} failed: {reason}")
+        return 1
+    return 0
+
+
+def _add_fit(sub):
+    from .identify import METHODS
+
+    p = sub.add_parser("fit", help="identify E and nu from a measured curve",
+                       description="Fit a neo-Hookean half-space to the loading part of a measured curve "
+                                   "(CSV with depth_mm|depth_um|depth_m, force_mN|force_N|force_uN, optional time_s).")
+    p.add_argument("data", type=Path, help="measurement CSV")
+    p.add_argument("--method", choices=METHODS, default="lsq",
+                   help="ekf-paper: the paper's filter; ekf: better-conditioned filter; lsq: least squares (default)")
+    p.add_argument("--surface", type=Path, default=None, help="response surface file (default: cache, built if needed)")
+    p.add_argument("--window", default=None, help="depth window MIN:MAX in mm (e.g. 0.05:0.6)")
+    p.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
+    p.add_argument("--start", default=None, help="start values E,nu (default: a Hertz estimate at nu = 0.4)")
+    p.add_argument("--tol", type=float, default=None, help="stop rule C of the filters (default 1e-6)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(run=_run_fit)
+
+
+def _parse_start(text):
+    try:
+        E, nu = (float(x) for x in text.split(","))
+    except ValueError:
+        raise CLIError(f"--start must be E,nu (e.g. 10,0.3), got {text!r}") from None
+    return np.array([E, nu])
+
+
+def _run_fit(args) -> int:
+    import json
+
+    from .identify import fitting_data, identify, parse_window, surface_for
+    from .mechanics.contact import SphericalIndenter
+    from .measurement import load_csv
+    from .response_surface import ResponseSurface
+
+    SphericalIndenter(args.radius)
+    measurement = load_csv(args.data, radius_mm=args.radius)
+    window = parse_window(args.window) if args.window else None
+    data = fitting_data(measurement, window)
+    if args.surface is not None:
+        if not args.surface.is_file():
+            raise CLIError(f"surface file not found: {args.surface}")
+        surface = ResponseSurface.load(args.surface)
+        r_surface = surface.settings.get("radius_mm")
+        if r_surface is not None and abs(r_surface - args.radius) > 1e-9 * args.radius:
+            raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for {args.radius:g} mm")
+    else:
+        surface = surface_for(args.radius, float(data.depth_mm.max()), progress=not args.json)
+    x0 = _parse_start(args.start) if args.start else None
+    result = identify(data, surface, args.method, x0=x0, tol=args.tol, radius_mm=args.radius)
+    if args.json:
+        print(json.dumps(result.to_dict()))
+    else:
+        print(f"data: {args.data} ({data.n_points} loading points from {data.depth_mm[0]:.4g} to "
+              f"{data.depth_mm[-1]:.4g} mm), sphere R = {args.radius:g} mm")
+        print(result.report())
+    return 0 if result.success else 1
+
+
+def _add_demo(sub):
+    p = sub.add_parser("demo", help="the paper's workflow on the bundled in-vivo-like curve",
+                       description="Identify (E, nu) of the bundled forearm-like curve with the paper's EKF and "
+                                   "global stabilisation, a better-conditioned EKF and least squares; write a figure.")
+    p.add_argument("--out", type=Path, default=Path("skin_indent_demo"), help="output folder (default skin_indent_demo)")
+    p.add_argument("--workers", type=int, default=None, help="local processes for building the surface")
+    p.set_defaults(run=_run_demo)
+
+
+def _run_demo(args) -> int:
+    from .demo import run_demo
+
+    run_demo(args.out, workers=args.workers)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -72,7 +197,10 @@ def build_parser() -> argparse.ArgumentParser:
                                      "identify material parameters, diagnose missing physics. Units: mm, kPa, mN, s.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    _add_demo(sub)
     _add_simulate(sub)
+    _add_surface(sub)
+    _add_fit(sub)
     return parser
 
 
@@ -88,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         return args.run(args)
-    except (CLIError, ValueError, ConvergenceError, OSError) as err:
+    except (CLIError, ValueError, TypeError, ConvergenceError, OSError) as err:
         message = " ".join(str(err).split()) or type(err).__name__
         print(f"skin-indent {args.command}: error: {message}", file=sys.stderr)
         return 2

@@ -80,11 +80,12 @@ class Coordinates:
 
     def external(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Raw x (clipped to the box) and the Jacobian dx/du (p, p) of the clipped map."""
-        u = np.asarray(u, float)
-        x = np.where(self.is_log, np.exp(np.where(self.is_log, u, 0.0)), u)
+        x = np.array(u, dtype=float)
+        x[self.is_log] = np.exp(x[self.is_log])
         D = np.diag(np.where(self.is_log, x, 1.0))
         clipped = (x < self.lower) | (x > self.upper)
-        x = np.clip(x, self.lower, self.upper)
+        if clipped.any():
+            x = np.minimum(np.maximum(x, self.lower), self.upper)
         if self.e is not None:  # E from the (clipped) nu, then clip E
             nu = x[self.v]
             es = np.exp(u[self.e])

@@ -1,0 +1,294 @@
+#!/usr/bin/env python
+"""Speed and accuracy of the forward model, and a side-by-side run of FElupe.
+
+    python benchmarks/forward.py            # full run (~2-4 min on 2 cores)
+    python benchmarks/forward.py --quick    # coarse mesh only, no refinement, no FElupe
+
+Problem: rigid sphere R = 6.22 mm into a neo-Hookean half-space, E = 8 kPa, nu = 0.45,
+100 output depths to 0.6 mm (``simulate(..., 0.6, 100)``, default settings).
+
+For each mesh of the family (coarse, medium, fine) it prints the size (P2 nodes =
+vertices + edges, dofs), the wall time of one 100-point curve (median of 3 runs, mesh
+generation included), Newton statistics, F(0.6 mm) and the error against the FElupe
+reference curve ``tests/data/reference/neo-hooke_halfspace_E8kPa_nu0.45.csv`` (our
+model solved at the reference depths, max relative error over h >= 0.1 mm and
+h >= 0.05 mm). It also measures the Python start + import time once (a subprocess
+``python -c "import skin_indent.simulate"``), the observed order of convergence of
+F(0.6 mm) under uniform refinement of the coarse mesh, and, when FElupe is installed,
+the FElupe model of ``benchmarks/felupe_reference.py`` on the same problem in the same
+run (time ratio FElupe / our medium mesh).
+
+Results go to stdout and to ``benchmarks/results/forward.json`` (kept out of git).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import inspect
+import json
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+try:  # installed (pip install -e .) or run from a checkout
+    import skin_indent  # noqa: F401
+except ImportError:  # pragma: no cover - depends on the environment
+    sys.path.insert(0, str(ROOT / "src"))
+    import skin_indent  # noqa: F401
+
+from skin_indent.mechanics import IndentationMesh, NeoHooke, SphericalIndenter, graded_mesh  # noqa: E402
+from skin_indent.simulate import simulate  # noqa: E402
+
+sys.path.insert(0, str(HERE))
+import felupe_reference  # noqa: E402
+
+RADIUS_MM = 6.22
+DEPTH_MM = 0.6
+POINTS = 100
+E_KPA, NU = 8.0, 0.45
+REFERENCE_CSV = ROOT / "tests" / "data" / "reference" / "neo-hooke_halfspace_E8kPa_nu0.45.csv"
+RESULTS = HERE / "results"
+#: Targets of the project brief.
+TARGET_SECONDS = 2.0
+TARGET_SPEEDUP = 8.0
+
+
+def _versions() -> dict:
+    import scipy
+    import skfem
+
+    out = {"python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
+           "scikit-fem": skfem.__version__}
+    try:
+        import felupe
+
+        out["felupe"] = felupe.__version__
+    except ImportError:
+        out["felupe"] = None
+    return out
+
+
+def import_time() -> dict:
+    """Wall time of a fresh ``python -c "import skin_indent.simulate"`` (and of ``python -c pass``)."""
+    env = dict(os.environ)
+    src = str(Path(skin_indent.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    out = {}
+    for key, code in (("python_start_s", "pass"), ("python_start_and_import_s", "import skin_indent.simulate")):
+        t = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code], env=env, check=True)
+        out[key] = time.perf_counter() - t
+    return out
+
+
+def mesh_size(imesh: IndentationMesh) -> dict:
+    v = imesh.n_vertices
+    e = imesh.mesh.facets.shape[1]
+    return {"vertices": v, "edges": e, "triangles": imesh.n_elements, "p2_nodes": v + e, "dofs": 2 * (v + e),
+            "surface_size_mm": imesh.surface_size_mm, "extent_mm": imesh.extent_mm}
+
+
+def reference() -> tuple[np.ndarray, np.ndarray]:
+    ref = np.loadtxt(REFERENCE_CSV, delimiter=",", skiprows=1)
+    keep = ref[:, 0] > 0
+    return ref[keep, 0], ref[keep, 1]
+
+
+def errors(depth, force, ref_depth, ref_force) -> dict:
+    """Relative errors against the reference at the same depths."""
+    rel = force / ref_force - 1.0
+    out = {"at_0.6mm": float(rel[-1])}
+    for hmin in (0.1, 0.05):
+        m = ref_depth >= hmin - 1e-9
+        out[f"max_abs_h>={hmin}"] = float(np.max(np.abs(rel[m])))
+    return out
+
+
+def newton_stats(report) -> dict:
+    return {"increments": report.increments, "newton_iterations": report.total_iterations,
+            "mean_iterations": report.mean_iterations, "step_cuts": report.step_cuts,
+            "line_search_evaluations": report.line_search_backtracks,
+            "max_penetration_ratio": report.max_penetration_ratio}
+
+
+def bench_mesh(name: str, repeats: int, material, indenter, ref) -> dict:
+    imesh = graded_mesh(RADIUS_MM, DEPTH_MM, name)
+    walls, solves, curve = [], [], None
+    for _ in range(repeats):
+        t = time.perf_counter()
+        curve = simulate(material, indenter, DEPTH_MM, POINTS, mesh=name)
+        walls.append(time.perf_counter() - t)
+        solves.append(curve.report.wall_time_s)
+    ref_depth, ref_force = ref
+    at_ref = simulate(material, indenter, ref_depth, mesh=name)
+    return {
+        "mesh": curve.mesh_name,
+        **mesh_size(imesh),
+        "wall_s_runs": walls,
+        "wall_s_median": statistics.median(walls),
+        "solve_s_median": statistics.median(solves),
+        **newton_stats(curve.report),
+        "force_0.6mm_mN": float(curve.force_mN[-1]),
+        "error_vs_reference": errors(ref_depth, at_ref.force_mN, ref_depth, ref_force),
+    }
+
+
+def refinement_study(material, indenter) -> dict:
+    """F(0.6 mm) on the coarse mesh refined uniformly 0, 1 and 2 times (each triangle split in 4)."""
+    base = graded_mesh(RADIUS_MM, DEPTH_MM, "coarse")
+    meshes = [base]
+    for k in (1, 2):
+        m = meshes[-1].mesh.refined(1)
+        if not m.boundaries or not {"axis", "top", "bottom", "outer"} <= set(m.boundaries):
+            raise RuntimeError("uniform refinement lost the named boundaries")
+        meshes.append(IndentationMesh(m, f"coarse refined uniformly x{k}", base.contact_radius_mm,
+                                      base.surface_size_mm / 2**k, base.extent_mm))
+    rows = []
+    for im in meshes:
+        t = time.perf_counter()
+        c = simulate(material, indenter, DEPTH_MM, POINTS, mesh=im)
+        rows.append({"mesh": im.name, **mesh_size(im), "force_0.6mm_mN": float(c.force_mN[-1]),
+                     "wall_s": time.perf_counter() - t, "newton_iterations": c.report.total_iterations})
+    f1, f2, f3 = (r["force_0.6mm_mN"] for r in rows)
+    ratio = (f1 - f2) / (f2 - f3) if f2 != f3 else float("inf")
+    p = math.log2(ratio) if ratio > 0 and math.isfinite(ratio) else float("nan")
+    extrapolated = f3 + (f3 - f2) / (2**p - 1) if math.isfinite(p) and p > 0 else float("nan")
+    return {"meshes": rows, "F1-F2": f1 - f2, "F2-F3": f2 - f3, "ratio": ratio, "observed_order": p,
+            "richardson_F_mN": extrapolated}
+
+
+def bench_felupe(ref, felupe_tol: float) -> dict:
+    depth, force, seconds, info = felupe_reference.run_felupe(E_KPA, NU, DEPTH_MM, POINTS, tol=felupe_tol)
+    ref_depth, ref_force = ref
+    # FElupe solves at 0.006 k, the reference at 0.6 k / 99: compare at 0.6 mm and, in
+    # between, with F / h^1.5 interpolated linearly (smooth, ~Hertz constant)
+    ratio = np.interp(ref_depth, depth, force / depth**1.5)
+    return {"wall_s": seconds, "force_0.6mm_mN": float(force[-1]), "tol": felupe_tol, **info,
+            "error_vs_reference": errors(ref_depth, ratio * ref_depth**1.5, ref_depth, ref_force)}
+
+
+def _at_every_depth() -> dict:
+    """Keyword of :func:`simulate` that solves equilibrium at every output depth."""
+    if "solve_at_outputs" in inspect.signature(simulate).parameters:
+        return {"solve_at_outputs": True}
+    return {"increments": POINTS}  # older signature: increments = points solves at the outputs
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:+.3f} %"
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description="Forward-model benchmark (speed, accuracy, FElupe side by side).")
+    parser.add_argument("--quick", action="store_true", help="coarse mesh only; no refinement study, no FElupe")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs per mesh (median reported; default 3)")
+    parser.add_argument("--felupe-tol", type=float, default=felupe_reference.TOL,
+                        help=f"FElupe Newton tolerance (default {felupe_reference.TOL:g}, as the reference curves)")
+    parser.add_argument("--output", type=Path, default=RESULTS / "forward.json", help="JSON output file")
+    args = parser.parse_args(argv)
+
+    material, indenter = NeoHooke(E_kPa=E_KPA, nu=NU), SphericalIndenter(RADIUS_MM)
+    ref = reference()
+    results = {
+        "date": _dt.datetime.now().isoformat(timespec="seconds"),
+        "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()},
+        "versions": _versions(),
+        "problem": {"E_kPa": E_KPA, "nu": NU, "radius_mm": RADIUS_MM, "depth_mm": DEPTH_MM, "points": POINTS},
+        "quick": args.quick,
+    }
+    print(f"forward-model benchmark, {results['date']}, {os.cpu_count()} cpus, "
+          f"load average {results['machine']['loadavg_start'][0]:.2f}")
+
+    results["import"] = import_time()
+    print(f"python start: {results['import']['python_start_s']:.2f} s; "
+          f"python start + import skin_indent.simulate: {results['import']['python_start_and_import_s']:.2f} s")
+
+    names = ["coarse"] if args.quick else ["coarse", "medium", "fine"]
+    results["meshes"] = {}
+    head = (f"{'mesh':<7} {'nodes':>6} {'dofs':>6} {'time/s':>7} {'solve/s':>7} {'incr':>4} {'newton':>6} "
+            f"{'it/inc':>6} {'LS':>4} {'F(0.6)/mN':>10} {'err@0.6':>9} {'max h>=.1':>9} {'max h>=.05':>10}")
+    print(f"\n{POINTS}-point curve to {DEPTH_MM} mm, E = {E_KPA} kPa, nu = {NU} (time: median of {args.repeats})")
+    print(head)
+    for name in names:
+        r = bench_mesh(name, args.repeats, material, indenter, ref)
+        results["meshes"][name] = r
+        e = r["error_vs_reference"]
+        print(f"{name:<7} {r['p2_nodes']:>6} {r['dofs']:>6} {r['wall_s_median']:>7.2f} {r['solve_s_median']:>7.2f} "
+              f"{r['increments']:>4} {r['newton_iterations']:>6} {r['mean_iterations']:>6.2f} "
+              f"{r['line_search_evaluations']:>4} {r['force_0.6mm_mN']:>10.5f} {_pct(e['at_0.6mm']):>9} "
+              f"{100 * e['max_abs_h>=0.1']:>7.3f} % {100 * e['max_abs_h>=0.05']:>8.3f} %")
+    print(f"reference F(0.6 mm) = {ref[1][-1]:.5f} mN (FElupe, 1000 mm domain; ours is {graded_mesh(RADIUS_MM, DEPTH_MM).extent_mm:.0f} mm)")
+
+    if not args.quick:
+        print("\nuniform refinement of the coarse mesh (F at 0.6 mm):")
+        st = refinement_study(material, indenter)
+        results["refinement"] = st
+        for r in st["meshes"]:
+            print(f"  {r['mesh']:<32} {r['p2_nodes']:>6} nodes {r['dofs']:>6} dofs  F = {r['force_0.6mm_mN']:.9f} mN "
+                  f"({r['wall_s']:.1f} s)")
+        print(f"  F1-F2 = {st['F1-F2']:.3e} mN, F2-F3 = {st['F2-F3']:.3e} mN, ratio {st['ratio']:.3g}, "
+              f"observed order p = log2(ratio) = {st['observed_order']:.2f}")
+        if math.isfinite(st["richardson_F_mN"]):
+            print(f"  Richardson extrapolation F = {st['richardson_F_mN']:.6f} mN")
+
+        medium = results["meshes"]["medium"]["wall_s_median"]
+        t = time.perf_counter()
+        c100 = simulate(material, indenter, DEPTH_MM, POINTS, mesh="medium", **_at_every_depth())
+        results["medium_100_increments"] = {"wall_s": time.perf_counter() - t, **newton_stats(c100.report),
+                                            "force_0.6mm_mN": float(c100.force_mN[-1])}
+        m100 = results["medium_100_increments"]
+        print(f"\nmedium mesh solved at all {POINTS} output depths ({_at_every_depth()}, as FElupe below): "
+              f"{m100['wall_s']:.2f} s, {m100['newton_iterations']} Newton iterations "
+              f"({m100['mean_iterations']:.2f} per increment), F(0.6) = {m100['force_0.6mm_mN']:.5f} mN")
+        try:
+            fe = bench_felupe(ref, args.felupe_tol)
+        except ImportError as err:
+            print(f"\nFElupe side by side skipped: {err}")
+            results["felupe"] = None
+        else:
+            fe["ratio_to_medium"] = fe["wall_s"] / medium
+            fe["ratio_to_medium_100_increments"] = fe["wall_s"] / m100["wall_s"]
+            results["felupe"] = fe
+            e = fe["error_vs_reference"]
+            print(f"\nFElupe {fe['felupe_version']} (benchmarks/felupe_reference.py): {fe['n_nodes']} nodes, "
+                  f"{fe['n_dofs']} dofs, 9-node quads, h0 = {fe['surface_size_mm']:.3g} mm, tol {fe['tol']:g}")
+            print(f"  {fe['increments']} increments, {fe['newton_iterations']} Newton iterations "
+                  f"({fe['mean_iterations']:.2f} per increment), {fe['wall_s']:.2f} s, "
+                  f"F(0.6) = {fe['force_0.6mm_mN']:.5f} mN ({_pct(e['at_0.6mm'])} vs reference, "
+                  f"max {100 * e['max_abs_h>=0.1']:.3f} % over h >= 0.1 mm)")
+            print(f"  time FElupe / ours (medium, default {results['meshes']['medium']['increments']} increments): "
+                  f"{fe['ratio_to_medium']:.1f}x; / ours (medium, solved at all {POINTS} depths): "
+                  f"{fe['ratio_to_medium_100_increments']:.1f}x")
+
+        ok_time = medium <= TARGET_SECONDS
+        print(f"\ntargets: <= {TARGET_SECONDS:g} s per curve on the default mesh: {medium:.2f} s "
+              f"({'met' if ok_time else 'NOT met'})", end="")
+        if results.get("felupe"):
+            ok_speed = results["felupe"]["ratio_to_medium"] >= TARGET_SPEEDUP
+            print(f"; >= {TARGET_SPEEDUP:g}x faster than FElupe: {results['felupe']['ratio_to_medium']:.1f}x "
+                  f"({'met' if ok_speed else 'NOT met'})")
+        else:
+            print()
+
+    results["machine"]["loadavg_end"] = os.getloadavg()
+    out = args.output
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.parent == RESULTS and not (RESULTS / ".gitignore").exists():
+        (RESULTS / ".gitignore").write_text("*\n")
+    out.write_text(json.dumps(results, indent=2, default=float) + "\n")
+    print(f"\nwritten {out}")
+    return results
+
+
+if __name__ == "__main__":
+    main()

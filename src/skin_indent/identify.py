@@ -1,0 +1,141 @@
+"""The user's path from a measured curve to material parameters.
+
+:func:`identify` takes a :class:`~skin_indent.measurement.Measurement` and a response
+surface, keeps the loading segment inside a depth window, starts from a Hertz
+estimate (or given values) and runs one of the inversion methods of
+:mod:`skin_indent.inverse`. :func:`surface_for` finds (or builds and caches) the
+response surface that covers a measurement.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .analytic import hertz_force
+from .measurement import Measurement, MeasurementError
+from .response_surface import ResponseSurface, SurfaceGrid, default_settings
+
+METHODS = ("ekf-paper", "ekf", "lsq")
+#: The paper's in vivo stop rule and window.
+PAPER_TOLERANCE = 1e-5
+
+
+def parse_window(text: str) -> tuple[float, float]:
+    """``"0.05:0.6"`` -> (0.05, 0.6) mm, with a one-line error for anything else."""
+    try:
+        lo, hi = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise ValueError(f"window must be MIN:MAX in mm (e.g. 0.05:0.6), got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
+        raise ValueError(f"window must satisfy 0 <= MIN < MAX, got {text!r}")
+    return lo, hi
+
+
+def fitting_data(measurement: Measurement, window: tuple[float, float] | None = None) -> Measurement:
+    """The strictly increasing loading segment, restricted to ``window`` (mm).
+
+    A curve with a ``time_s`` column is split into segments and its approach is
+    used (depth jitter within it dropped, as :meth:`Measurement.loading` records). A
+    curve without time must be a loading curve: its depths must increase, or it is
+    rejected (a decreasing depth there is a malformed file, not jitter).
+    """
+    if measurement.has_time:
+        data = measurement.loading().require_monotone_loading()
+    else:
+        data = measurement.require_monotone_loading()
+    if window is not None:
+        data = data.window(*window)
+    return data
+
+
+def hertz_modulus(depth_mm, force_mN, radius_mm: float) -> float:
+    """Reduced modulus E* = E / (1 - nu^2) (kPa) of the least-squares Hertz fit through the origin."""
+    shape = hertz_force(depth_mm, 1.0, 0.0, radius_mm)  # 4/3 sqrt(R) h^1.5
+    denom = float(shape @ shape)
+    if denom <= 0:
+        raise ValueError("cannot estimate a modulus: all depths are <= 0")
+    e_star = float(shape @ np.asarray(force_mN)) / denom
+    if not e_star > 0:
+        raise ValueError("cannot estimate a modulus: the force does not increase with depth")
+    return e_star
+
+
+def start_values(surface, depth_mm, force_mN, radius_mm: float, nu: float = 0.4) -> np.ndarray:
+    """Hertz first guess (E, nu) clipped into the surface's box."""
+    lo, hi = surface.bounds
+    nu = float(np.clip(nu, lo[1], hi[1]))
+    E = hertz_modulus(depth_mm, force_mN, radius_mm) * (1 - nu**2)
+    return np.array([float(np.clip(E, lo[0], hi[0])), nu])
+
+
+def default_grid(max_depth_mm: float, n_depth: int = 100) -> SurfaceGrid:
+    """The paper's grid (8 E x 6 nu) reaching at least ``max_depth_mm`` (0.6 mm or more)."""
+    depth = max(0.6, math.ceil(max_depth_mm / 0.05 - 1e-9) * 0.05)
+    return SurfaceGrid.paper(depth_max_mm=depth, n_depth=n_depth)
+
+
+def surface_for(radius_mm: float, max_depth_mm: float, *, grid: SurfaceGrid | None = None, path=None,
+                cache_dir=None, workers=None, progress: bool = True) -> ResponseSurface:
+    """Load or build the neo-Hookean response surface for a sphere and depth range."""
+    grid = grid or default_grid(max_depth_mm)
+    settings = default_settings(radius_mm=radius_mm)
+    return ResponseSurface.load_or_build(grid, settings, path=path, cache_dir=cache_dir, workers=workers,
+                                         progress=progress)
+
+
+def check_inside(surface, depth_mm) -> None:
+    """One-line error when measured depths lie beyond the surface."""
+    lo, hi = surface.depth_range
+    if np.max(depth_mm) > hi * (1 + 1e-9):
+        raise ValueError(f"measured depth reaches {np.max(depth_mm):.4g} mm, beyond the surface's {hi:.4g} mm: "
+                         "build a deeper surface (skin-indent surface build --depth ...) or narrow --window")
+
+
+def identify(data: Measurement, surface, method: str = "lsq", *, x0=None, fixed=None, tol: float | None = None,
+             radius_mm: float | None = None, noise_mN: float | None = None):
+    """Identify (E, nu) from a loading curve with a response surface.
+
+    Parameters
+    ----------
+    data : Measurement
+        Increasing loading data (see :func:`fitting_data`), mm and mN.
+    surface : ResponseSurface
+        The forward model (``force``/``jacobian`` over (E_kPa, nu)).
+    method : {"ekf-paper", "ekf", "lsq"}
+        The paper's filter with global stabilisation, the better-conditioned filter,
+        or least squares.
+    x0 : array_like, optional
+        Start (E_kPa, nu); default a Hertz estimate at nu = 0.4.
+    fixed : dict, optional
+        Parameters held fixed, e.g. ``{"nu": 0.5}``.
+    tol : float, optional
+        Stop rule C of the filters (default 1e-6 as in the paper's blind tests).
+    radius_mm : float, optional
+        Sphere radius for the Hertz start (default the surface's).
+    noise_mN : float, optional
+        Noise level; default estimated from the data.
+
+    Returns
+    -------
+    skin_indent.inverse.IdentificationResult
+    """
+    from . import inverse
+
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if data.n_points < 3:
+        raise MeasurementError(f"{data.source}: fewer than 3 points to fit")
+    check_inside(surface, data.depth_mm)
+    radius = radius_mm or float(surface.settings.get("radius_mm", 6.22))
+    if x0 is None:
+        x0 = start_values(surface, data.depth_mm, data.force_mN, radius)
+    kwargs = {"fixed": fixed}
+    if method == "lsq":
+        return inverse.fit_least_squares(surface, data.depth_mm, data.force_mN, x0, noise_mN=noise_mN, **kwargs)
+    if tol is not None:
+        kwargs["tol"] = tol
+    if method == "ekf":
+        return inverse.fit_ekf(surface, data.depth_mm, data.force_mN, x0, noise_mN=noise_mN, **kwargs)
+    return inverse.fit_ekf_paper(surface, data.depth_mm, data.force_mN, x0, **kwargs)

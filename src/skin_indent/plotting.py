@@ -1,0 +1,87 @@
+"""Figures (matplotlib): every function takes result objects and an optional ``ax``.
+
+Import matplotlib lazily so that the rest of the package does not pay for it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _axes(ax, **subplot_kw):
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(**subplot_kw)
+    return ax
+
+
+def plot_fit(depth_mm, force_mN, fits: dict, ax=None, title: str | None = None):
+    """Measured force and model curves against depth.
+
+    Parameters
+    ----------
+    depth_mm, force_mN : array_like
+        The measurement (mm, mN).
+    fits : dict
+        ``label -> model force (mN) at depth_mm``.
+    """
+    ax = _axes(ax)
+    ax.plot(depth_mm, force_mN, "o", ms=3, mfc="none", color="0.35", label="measurement")
+    for label, model in fits.items():
+        ax.plot(depth_mm, model, "-", lw=1.6, label=label)
+    ax.set_xlabel("depth h (mm)")
+    ax.set_ylabel("force F (mN)")
+    ax.legend(frameon=False)
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_residuals(depth_mm, residuals: dict, noise_mN: float | None = None, ax=None):
+    """Residuals (measured - model, mN) against depth, with the +/- 1 and 2 sigma noise band."""
+    ax = _axes(ax)
+    if noise_mN:
+        ax.axhspan(-2 * noise_mN, 2 * noise_mN, color="0.92", label="noise band (2 sigma)")
+        ax.axhspan(-noise_mN, noise_mN, color="0.84")
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    for label, r in residuals.items():
+        ax.plot(depth_mm, r, ".-", ms=3, lw=0.8, label=label)
+    ax.set_xlabel("depth h (mm)")
+    ax.set_ylabel("residual (mN)")
+    ax.legend(frameon=False, fontsize="small")
+    return ax
+
+
+def plot_sweep_history(result, axes=None):
+    """Parameters at the end of each sweep of a Kalman filter (the paper's Figs. 9 and 10)."""
+    import matplotlib.pyplot as plt
+
+    sweeps = np.asarray(result.history["sweeps"])
+    names = result.free_names
+    if axes is None:
+        _, axes = plt.subplots(len(names), 1, sharex=True)
+    axes = np.atleast_1d(axes)
+    for ax, name, col in zip(axes, names, sweeps.T):
+        ax.plot(np.arange(col.size), col, "-", lw=1.2)
+        ax.set_ylabel(name)
+    axes[-1].set_xlabel("sweep (global stabilisation)")
+    axes[0].set_title(f"{result.method}: {result.iterations} sweeps")
+    return axes
+
+
+def plot_first_pass(result, depth_mm, axes=None):
+    """Parameters after each update of the first forward pass (the paper's Figs. 6 and 7)."""
+    import matplotlib.pyplot as plt
+
+    first = np.asarray(result.history["first_pass"])
+    names = result.free_names
+    if axes is None:
+        _, axes = plt.subplots(len(names), 1, sharex=True)
+    axes = np.atleast_1d(axes)
+    for ax, name, col in zip(axes, names, first.T):
+        ax.plot(np.asarray(depth_mm)[: col.size], col, "-", lw=1.2)
+        ax.set_ylabel(name)
+    axes[-1].set_xlabel("depth of the measured point (mm)")
+    axes[0].set_title(f"{result.method}: first forward pass")
+    return axes
