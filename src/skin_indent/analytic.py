@@ -60,6 +60,44 @@ def sneddon_sphere_force(depth_mm, E_kPa, nu, radius_mm):
     return out if np.ndim(depth_mm) else float(out[0])
 
 
+def ting_ramp_force(time_s, speed_mm_per_s, E_kPa, nu, radius_mm, prony):
+    r"""Force (mN) of a viscoelastic half-space under a sphere pushed at constant speed.
+
+    Lee-Radok / Ting solution for monotone loading at small strain, with the
+    relaxation modulus ``E(t) = E (g_inf + sum g_i exp(-t / tau_i))`` and constant nu:
+
+    .. math::
+
+        F(t) = \frac{4\sqrt{R}}{3(1-\nu^2)} \int_0^t E(t-s) \frac{d h^{3/2}}{ds} ds
+             = \frac{2\sqrt{R}\, v^{3/2} E}{1-\nu^2}\Big[\frac{2}{3} g_\infty t^{3/2}
+               + \sum_i g_i \tau_i^{3/2} \big(u_i - D(u_i)\big)\Big],\quad u_i = \sqrt{t/\tau_i},
+
+    with D Dawson's integral (``scipy.special.dawsn``).
+
+    Parameters
+    ----------
+    time_s : array_like
+        Time since first contact, s.
+    speed_mm_per_s : float
+        Loading speed v, mm/s (depth h = v t).
+    E_kPa, nu : float
+        Instantaneous modulus and Poisson's ratio.
+    radius_mm : float
+        Sphere radius R, mm.
+    prony : sequence of (g, tau_s)
+        Prony terms.
+    """
+    from scipy.special import dawsn
+
+    t = np.maximum(np.asarray(time_s, dtype=float), 0.0)
+    g_inf = 1.0 - sum(g for g, _ in prony)
+    total = 2.0 / 3.0 * g_inf * t**1.5
+    for g, tau in prony:
+        u = np.sqrt(t / tau)
+        total = total + g * tau**1.5 * (u - dawsn(u))
+    return 2.0 * np.sqrt(radius_mm) * speed_mm_per_s**1.5 * E_kPa / (1.0 - nu**2) * total
+
+
 def hertz_contact_radius(depth_mm, radius_mm):
     """Hertz contact radius a = sqrt(R h), mm."""
     return np.sqrt(radius_mm * np.maximum(np.asarray(depth_mm, dtype=float), 0.0))

@@ -25,6 +25,7 @@ from .mechanics.contact import SphericalIndenter
 from .mechanics.materials import Material, NeoHooke
 from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh
 from .mechanics.solver import IndentationProblem, NewtonReport
+from .protocol import Protocol
 
 #: Dimensionless contact penalty: epsilon = PENALTY * E / sqrt(R h_max) (kPa/mm).
 #: Keeps the penetration below ~0.05% of the depth (checked in the tests).
@@ -52,6 +53,8 @@ class ForceDepthCurve:
         Which mesh was used and how it was obtained.
     report : NewtonReport
         Newton statistics.
+    time_s : ndarray or None
+        Times of the depths (s) when a protocol drove the simulation.
     solved_depth_mm, solved_force_mN : ndarray
         Depths (mm) at which equilibrium was solved and the forces there (mN). For
         path-independent laws these are geometrically spaced and the output forces
@@ -67,12 +70,15 @@ class ForceDepthCurve:
     solved_depth_mm: np.ndarray
     solved_force_mN: np.ndarray
     _state: tuple | None = field(default=None, repr=False)
+    time_s: np.ndarray | None = None
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write ``depth_mm,force_mN`` to ``path``."""
+        """Write ``depth_mm,force_mN`` (with ``time_s`` first when known) to ``path``."""
         path = Path(path)
-        data = np.column_stack([self.depth_mm, self.force_mN])
-        np.savetxt(path, data, delimiter=",", header="depth_mm,force_mN", comments="", fmt="%.10g")
+        columns, header = [self.depth_mm, self.force_mN], "depth_mm,force_mN"
+        if self.time_s is not None:
+            columns, header = [self.time_s] + columns, "time_s," + header
+        np.savetxt(path, np.column_stack(columns), delimiter=",", header=header, comments="", fmt="%.10g")
         return path
 
     def write_vtu(self, path: str | Path) -> Path:
@@ -116,8 +122,8 @@ def _mesh_for(mesh, indenter: SphericalIndenter, max_depth: float) -> Indentatio
 
 def simulate(material: Material, indenter: SphericalIndenter | None = None, depth_mm=0.6, points: int = 100,
              *, mesh=DEFAULT_MESH, increments: int | None = None, solve_at_outputs: bool = False,
-             penalty: float = PENALTY, rtol: float = RTOL, keep_state: bool = False,
-             progress=None) -> ForceDepthCurve:
+             protocol: Protocol | None = None, penalty: float = PENALTY, rtol: float = RTOL,
+             keep_state: bool = False, progress=None) -> ForceDepthCurve:
     """Simulate the indentation of a half-space by a rigid sphere.
 
     Parameters
@@ -138,8 +144,11 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         laws, geometrically spaced from ``min(h_1, h_max / 100)`` to ``h_max``
         (default 24); the force at the output depths is interpolated.
     solve_at_outputs : bool
-        Solve equilibrium exactly at the output depths instead (always the case for
-        path-dependent laws).
+        Solve equilibrium exactly at the output depths instead.
+    protocol : Protocol, optional
+        Depth history with time (ramp, hold, unloading, or a measurement's); then
+        ``depth_mm`` and ``points`` are ignored and every protocol point is solved.
+        Required for history-dependent laws (viscoelastic).
     penalty : float
         Dimensionless contact penalty (epsilon = penalty * E / sqrt(R h_max)).
     rtol : float
@@ -163,12 +172,14 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     if not isinstance(material, Material):
         raise ValueError(f"material must be a skin_indent Material, got {type(material).__name__}")
     indenter = indenter or SphericalIndenter()
+    if protocol is not None:
+        return _simulate_protocol(material, indenter, protocol, mesh, penalty, rtol, keep_state, progress)
+    if not material.path_independent:
+        raise ValueError(f"{material.name} depends on the loading history: give a protocol (time and depth)")
     depths = _check_depths(depth_mm, points)
     imesh = _mesh_for(mesh, indenter, depths[-1])
     problem = IndentationProblem(imesh, material, indenter, depths[-1], penalty=penalty, rtol=rtol)
-    if solve_at_outputs or not material.path_independent:
-        if increments is not None and not solve_at_outputs:
-            raise ValueError(f"{material.name} is path dependent: it is solved at every output depth")
+    if solve_at_outputs:
         solved = depths
     else:
         n_solve = DEFAULT_INCREMENTS if increments is None else increments
@@ -188,6 +199,17 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         out = ratio(depths) * depths**1.5
     state = (problem, u, float(solved[-1])) if keep_state else None
     return ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state)
+
+
+def _simulate_protocol(material, indenter, protocol: Protocol, mesh, penalty, rtol, keep_state, progress):
+    """Solve at every point of a depth-time history."""
+    imesh = _mesh_for(mesh, indenter, protocol.max_depth_mm)
+    problem = IndentationProblem(imesh, material, indenter, protocol.max_depth_mm, penalty=penalty, rtol=rtol)
+    cb = (lambda i: progress(i, protocol.depth_mm.size)) if progress else None
+    forces, u, report = problem.solve(protocol.depth_mm, progress=cb, times_s=protocol.time_s)
+    state = (problem, u, float(protocol.depth_mm[-1])) if keep_state else None
+    return ForceDepthCurve(protocol.depth_mm, forces, material, indenter, imesh.name, report, protocol.depth_mm,
+                           forces, state, time_s=protocol.time_s)
 
 
 def fe_unit_curve(nu: float, depth_mm, *, radius_mm: float = 6.22, mesh: str = DEFAULT_MESH) -> np.ndarray:

@@ -82,8 +82,13 @@ class SparsityPattern:
         return sparse.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-def _as_slice(ix: np.ndarray):
-    """A contiguous index range as a slice (views instead of copies in the hot loop)."""
+def _selector(ix: np.ndarray, shape):
+    """Element indices or a (nel, nq) boolean mask; a full contiguous range becomes a slice
+    (views instead of copies in the hot loop)."""
+    if ix.dtype == bool:
+        if ix.shape != shape:
+            raise ValueError(f"a quadrature-point mask must have shape {shape}, got {ix.shape}")
+        return ix
     if ix.size and np.array_equal(ix, np.arange(ix[0], ix[0] + ix.size)):
         return slice(int(ix[0]), int(ix[0] + ix.size))
     return ix
@@ -103,8 +108,18 @@ class AxisymmetricSolid:
         Scalar element (default :class:`~skfem.ElementTriP2`), used for both components.
     intorder : int
         Quadrature order (default 4: six points per triangle).
-    regions : sequence of (ndarray of element indices, Material), optional
-        Different materials in different elements (layers). Overrides ``material``.
+    regions : sequence of (selector, Material), optional
+        Different materials in different parts of the body (layers). A selector is
+        an array of element indices, or a boolean mask of shape (nel, nq) choosing
+        quadrature points (a material interface that cuts through elements).
+        Overrides ``material``.
+
+    Notes
+    -----
+    History-dependent laws (``path_independent = False``) keep a state per
+    quadrature point here. :meth:`begin_step` freezes the law over a time step
+    of ``dt`` seconds from the committed state, :meth:`commit` stores the state
+    of a converged step; a failed (cut) step leaves the committed state intact.
     """
 
     def __init__(self, mesh, material: Material | None, element=None, intorder: int = 4, regions=None):
@@ -139,8 +154,30 @@ class AxisymmetricSolid:
             if material is None:
                 raise ValueError("give a material or regions")
             regions = [(np.arange(nel), material)]
-        self.regions = [(_as_slice(np.asarray(ix)), mat) for ix, mat in regions]
+        self.regions = [(_selector(np.asarray(ix), (nel, nq)), mat) for ix, mat in regions]
         self.small_strain = all(m.small_strain for _, m in self.regions)
+        if len({m.small_strain for _, m in self.regions}) > 1:
+            raise ValueError("all materials of a body must be either small-strain or finite-strain")
+        self.path_independent = all(m.path_independent for _, m in self.regions)
+        self.states = [None if m.path_independent else m.initial_state(self._selected_shape(sel))
+                       for sel, m in self.regions]
+        self._active = [m for _, m in self.regions]
+
+    def _selected_shape(self, sel):
+        return np.zeros(self.r.shape)[sel].shape
+
+    def begin_step(self, dt: float) -> None:
+        """Freeze history-dependent laws over a time step of ``dt`` seconds."""
+        self._active = [m if state is None else m.step(state, dt)
+                        for (_, m), state in zip(self.regions, self.states)]
+
+    def commit(self, u: np.ndarray, dt: float) -> None:
+        """Store the history of the converged state ``u`` reached over ``dt`` seconds."""
+        if self.path_independent:
+            return
+        H = self.displacement_gradient(u)
+        self.states = [None if state is None else m.commit(H[:, :, sel], state, dt)
+                       for (sel, m), state in zip(self.regions, self.states)]
 
     @property
     def n_elements(self) -> int:
@@ -159,7 +196,7 @@ class AxisymmetricSolid:
         """Evaluate each region's material on its elements."""
         P5 = np.empty((5,) + F.shape[2:])
         A55 = np.empty((5, 5) + F.shape[2:]) if want_tangent else None
-        for ix, mat in self.regions:
+        for (ix, _), mat in zip(self.regions, self._active):
             Fi = F[:, :, ix]
             if want_tangent:
                 P5[:, ix], A55[:, :, ix] = mat.tangent_components(Fi, F_COMPONENTS)
@@ -171,6 +208,8 @@ class AxisymmetricSolid:
 
     def energy(self, u: np.ndarray) -> float:
         """Stored energy (mN mm) of the displacement field ``u``."""
+        if not self.path_independent:
+            raise ValueError("a history-dependent body has no stored-energy function")
         F = self.displacement_gradient(u)
         W = np.empty(F.shape[2:])
         for ix, mat in self.regions:
@@ -189,6 +228,10 @@ class AxisymmetricSolid:
         P5, A55 = self._material_loop(F, tangent)
         fe = np.einsum("ckeq,ceq,eq->ke", self.G, P5, self.dV)
         f = np.bincount(self.element_dofs.ravel(), weights=fe.ravel(), minlength=self.n_dofs)
+        # gross internal force: the scale of the round-off in f (large locked-in stresses
+        # with a small net force, e.g. a viscoelastic body losing contact on unloading)
+        self.gross_force = float(np.linalg.norm(np.bincount(self.element_dofs.ravel(), weights=np.abs(fe).ravel(),
+                                                            minlength=self.n_dofs)))
         if not tangent:
             return f, None
         # K_e[k, l] = sum_q sum_cd G[c, k] A[c, d] G[d, l] dV: first B = A G dV per
@@ -204,10 +247,17 @@ class AxisymmetricSolid:
         Returns a dict with ``cauchy_rr, cauchy_zz, cauchy_tt, cauchy_rz, von_mises``
         of shape (nel,).
         """
+        from .materials.base import det_minus_one, identity_like
+
         F = self.displacement_gradient(u)
         sig = np.empty((3, 3) + F.shape[2:])
-        for ix, mat in self.regions:
-            sig[:, :, ix] = mat.cauchy(F[:, :, ix])
+        for (ix, _), mat in zip(self.regions, self._active):
+            H = F[:, :, ix]
+            P = mat.stress(H)
+            if self.small_strain:
+                sig[:, :, ix] = P
+            else:  # sigma = P F^T / J
+                sig[:, :, ix] = np.einsum("iJ...,kJ...->ik...", P, identity_like(H) + H) / (1.0 + det_minus_one(H))
         w = self.basis.dx / self.basis.dx.sum(axis=1, keepdims=True)
         avg = lambda a: np.sum(a * w, axis=1)  # noqa: E731
         s = {

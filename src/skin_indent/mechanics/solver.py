@@ -113,6 +113,8 @@ class IndentationProblem:
         self.solid = AxisymmetricSolid(imesh.mesh, material, regions=regions)
         e_ref = max(m.reference_modulus for _, m in self.solid.regions)
         a = math.sqrt(indenter.radius_mm * max_depth_mm)
+        # residual scale when nothing touches the sphere (unloading): a tiny force ~ E a^2
+        self.force_floor = 1e-9 * e_ref * a**2
         self.contact = SphereContact(imesh.mesh, indenter, max_depth_mm, penalty * e_ref / a,
                                      small_strain=self.solid.small_strain)
         b = self.solid.basis
@@ -179,7 +181,8 @@ class IndentationProblem:
         rel = np.inf
         for it in range(self.max_iterations + 1):
             r = (f_int + f_c)[free]
-            ref = max(np.linalg.norm(f_c[free]), np.linalg.norm(f_int[free]), 1e-300)
+            ref = max(np.linalg.norm(f_c[free]), np.linalg.norm(f_int[free]), self.force_floor,
+                      1e-3 * self.solid.gross_force)
             rel = np.linalg.norm(r) / ref
             if rel <= self.rtol:
                 return True, it, rel, force
@@ -205,22 +208,41 @@ class IndentationProblem:
             u += du
         return False, it, rel, force
 
+    def _check_times(self, times_s, depths):
+        """Times with the start state prepended: ``times[0]`` is the time of depth 0."""
+        if times_s is None:
+            if not self.solid.path_independent:
+                raise ValueError("a history-dependent (e.g. viscoelastic) model needs the times of the depths")
+            return np.arange(depths.size + 1, dtype=float)
+        t = np.asarray(times_s, dtype=float)
+        if t.shape != depths.shape or not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
+            raise ValueError("times must be finite, non-decreasing and one per depth")
+        # the sphere starts at depth 0; the first step lasts as long as the second (or 0)
+        dt0 = t[1] - t[0] if t.size > 1 else 0.0
+        return np.concatenate([[t[0] - dt0 if t[0] - dt0 >= 0 else 0.0], t])
+
     def _predict(self, u, u_prev, h_prev, h_cur, h_try, similarity):
         """First iterate at depth ``h_try`` from the converged states at ``h_cur`` and ``h_prev``."""
         if similarity is not None and h_cur > 0 and np.isclose(h_try / h_cur, similarity.ratio, rtol=1e-9):
             geometric = u_prev is not None and h_prev > 0 and np.isclose(h_cur / h_prev, similarity.ratio, rtol=1e-9)
             return similarity(u, u_prev if geometric else None)
-        if u_prev is not None and h_cur > h_prev:
+        if u_prev is not None and h_cur != h_prev and (h_try - h_cur) * (h_cur - h_prev) > 0:
             return u + (u - u_prev) * ((h_try - h_cur) / (h_cur - h_prev))
         return u.copy()
 
-    def solve(self, depths_mm, progress=None, predictor: str = "auto"):
-        """Push the sphere through ``depths_mm`` (increasing, > 0) and return the forces.
+    def solve(self, depths_mm, progress=None, predictor: str = "auto", times_s=None):
+        """Move the sphere through ``depths_mm`` and return the forces.
 
         Parameters
         ----------
         depths_mm : array_like
-            Depths at which the state is solved and the force recorded, mm.
+            Depths at which the state is solved and the force recorded, mm (any
+            sequence: loading, holds and unloading; contact is lost when the
+            surface no longer touches the sphere).
+        times_s : array_like, optional
+            Times of the depths, s, non-decreasing (required for history-dependent
+            laws; the time steps drive their evolution). The body starts at rest at
+            depth 0, one time step before ``times_s[0]`` (or at ``times_s[0]`` = 0).
         progress : callable, optional
             Called as ``progress(i)`` after each requested depth.
         predictor : {"auto", "linear", "similarity"}
@@ -237,11 +259,14 @@ class IndentationProblem:
         report : NewtonReport
         """
         depths = np.asarray(depths_mm, dtype=float)
+        times = self._check_times(times_s, depths)
         if predictor not in ("auto", "linear", "similarity"):
             raise ValueError(f"predictor must be 'auto', 'linear' or 'similarity', got {predictor!r}")
         similarity = None
-        ratios = depths[1:] / depths[:-1]
-        geometric = ratios.size > 0 and np.allclose(ratios, ratios[0], rtol=1e-9) and ratios[0] > 1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratios = depths[1:] / depths[:-1]
+        geometric = (self.solid.path_independent and ratios.size > 0 and np.all(depths > 0)
+                     and np.allclose(ratios, ratios[0], rtol=1e-9) and ratios[0] > 1)
         if predictor == "similarity" and not geometric:
             raise ValueError("the similarity predictor needs geometrically spaced depths")
         if predictor != "linear" and geometric:
@@ -249,21 +274,25 @@ class IndentationProblem:
         t0 = time.perf_counter()
         report = NewtonReport()
         u = np.zeros(self.n_dofs)
-        u_prev, h_prev, h_cur = None, 0.0, 0.0
+        u_prev, h_prev, h_cur, t_cur = None, 0.0, 0.0, times[0]
         forces = np.empty(depths.size)
         for i, target in enumerate(depths):
             cuts = 0
             while True:
                 h_try = h_cur + (target - h_cur) / 2**cuts
+                t_try = t_cur + (times[i + 1] - t_cur) / 2**cuts
                 trial = self._predict(u, u_prev, h_prev, h_cur, h_try, similarity)
+                self.solid.begin_step(t_try - t_cur)
                 ok, its, rel, force = self._newton(trial, h_try, report)
                 if ok:
-                    u_prev, h_prev, h_cur, u = u, h_cur, h_try, trial
+                    self.solid.commit(trial, t_try - t_cur)
+                    u_prev, h_prev, h_cur, t_cur, u = u, h_cur, h_try, t_try, trial
                     report.increments += 1
                     report.iterations.append(its)
                     report.residuals.append(rel)
-                    pen = self.contact.state(u, h_cur).max_penetration_mm
-                    report.max_penetration_ratio = max(report.max_penetration_ratio, pen / h_cur)
+                    if h_cur > 0:
+                        pen = self.contact.state(u, h_cur).max_penetration_mm
+                        report.max_penetration_ratio = max(report.max_penetration_ratio, pen / h_cur)
                     if h_try == target:
                         break
                     cuts = max(cuts - 1, 0)
