@@ -1,16 +1,7 @@
 """Shared test fixtures: data paths (never ../shared: a user's clone has no such folder)."""
 
-from pathlib import Path
-
-import numpy as np
 import pytest
-
-DATA = Path(__file__).parent / "data"
-
-
-def load_curve(relpath: str) -> np.ndarray:
-    """Columns of a CSV in tests/data (header skipped)."""
-    return np.loadtxt(DATA / relpath, delimiter=",", skiprows=1)
+from _data import load_curve
 
 
 @pytest.fixture(scope="session")

@@ -11,7 +11,7 @@ from skin_indent.mechanics.materials.viscoelastic import PronyTerm, Viscoelastic
 from skin_indent.protocol import Protocol
 from skin_indent.simulate import simulate
 
-from .conftest import load_curve
+from _data import load_curve
 
 R = 6.22
 
