@@ -98,6 +98,36 @@ def ting_ramp_force(time_s, speed_mm_per_s, E_kPa, nu, radius_mm, prony):
     return 2.0 * np.sqrt(radius_mm) * speed_mm_per_s**1.5 * E_kPa / (1.0 - nu**2) * total
 
 
+def dimitriadis_bonded_force(depth_mm, E_kPa, nu, radius_mm, thickness_mm):
+    r"""Sphere on a thin elastic layer bonded to a rigid base (Dimitriadis et al. 2002).
+
+    Small-strain Hertz force times the bonded-layer correction, valid for
+    :math:`\chi = \sqrt{R h} / t < 1`:
+
+    .. math::
+
+        F = F_H \Big[1 - \frac{2\alpha_0}{\pi}\chi + \frac{4\alpha_0^2}{\pi^2}\chi^2
+            - \frac{8}{\pi^3}\Big(\alpha_0^3 + \frac{4\pi^2}{15}\beta_0\Big)\chi^3
+            + \frac{16\alpha_0}{\pi^4}\Big(\alpha_0^3 + \frac{3\pi^2}{5}\beta_0\Big)\chi^4\Big]
+
+    with :math:`\alpha_0 = -(1.2876 - 1.4678\nu + 1.3442\nu^2)/(1-\nu)` and
+    :math:`\beta_0 = (0.6387 - 1.0277\nu + 1.5164\nu^2)/(1-\nu)`.
+
+    Parameters
+    ----------
+    depth_mm, E_kPa, nu, radius_mm : as in :func:`hertz_force`
+    thickness_mm : float
+        Layer thickness t, mm.
+    """
+    chi = np.sqrt(radius_mm * np.maximum(np.asarray(depth_mm, dtype=float), 0.0)) / thickness_mm
+    a0 = -(1.2876 - 1.4678 * nu + 1.3442 * nu**2) / (1 - nu)
+    b0 = (0.6387 - 1.0277 * nu + 1.5164 * nu**2) / (1 - nu)
+    pi = np.pi
+    corr = (1 - 2 * a0 / pi * chi + 4 * a0**2 / pi**2 * chi**2 - 8 / pi**3 * (a0**3 + 4 * pi**2 / 15 * b0) * chi**3
+            + 16 * a0 / pi**4 * (a0**3 + 3 * pi**2 / 5 * b0) * chi**4)
+    return hertz_force(depth_mm, E_kPa, nu, radius_mm) * corr
+
+
 def hertz_contact_radius(depth_mm, radius_mm):
     """Hertz contact radius a = sqrt(R h), mm."""
     return np.sqrt(radius_mm * np.maximum(np.asarray(depth_mm, dtype=float), 0.0))

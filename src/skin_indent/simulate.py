@@ -22,6 +22,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .mechanics.contact import SphericalIndenter
+from .mechanics.layers import LayeredSample
 from .mechanics.materials import Material, NeoHooke
 from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh
 from .mechanics.solver import IndentationProblem, NewtonReport
@@ -112,11 +113,17 @@ def _check_depths(depth_mm, points) -> np.ndarray:
     return d
 
 
-def _mesh_for(mesh, indenter: SphericalIndenter, max_depth: float) -> IndentationMesh:
+def _mesh_for(mesh, indenter: SphericalIndenter, max_depth: float, sample=None) -> IndentationMesh:
     if isinstance(mesh, IndentationMesh):
         return mesh
     if isinstance(mesh, (str, Path)) and Path(mesh).suffix:
         return load_mesh(mesh)
+    if isinstance(sample, LayeredSample):
+        interfaces = sample.interfaces_mm
+        if sample.rigid_base:
+            return graded_mesh(indenter.radius_mm, max_depth, mesh, interfaces_mm=interfaces[:-1],
+                               rigid_base_mm=float(interfaces[-1]))
+        return graded_mesh(indenter.radius_mm, max_depth, mesh, interfaces_mm=interfaces)
     return graded_mesh(indenter.radius_mm, max_depth, mesh)
 
 
@@ -128,8 +135,9 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
 
     Parameters
     ----------
-    material : Material
-        Constitutive law of the half-space (e.g. :class:`NeoHooke`).
+    material : Material or LayeredSample
+        Constitutive law of the half-space (e.g. :class:`NeoHooke`), or bonded
+        layers over a half-space or a rigid base.
     indenter : SphericalIndenter, optional
         The sphere (default radius 6.22 mm).
     depth_mm : float or array_like
@@ -169,15 +177,15 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     skin_indent.mechanics.solver.ConvergenceError
         Newton's method failed even with step cutting.
     """
-    if not isinstance(material, Material):
-        raise ValueError(f"material must be a skin_indent Material, got {type(material).__name__}")
+    if not isinstance(material, (Material, LayeredSample)):
+        raise ValueError(f"material must be a skin_indent Material or LayeredSample, got {type(material).__name__}")
     indenter = indenter or SphericalIndenter()
     if protocol is not None:
         return _simulate_protocol(material, indenter, protocol, mesh, penalty, rtol, keep_state, progress)
     if not material.path_independent:
         raise ValueError(f"{material.name} depends on the loading history: give a protocol (time and depth)")
     depths = _check_depths(depth_mm, points)
-    imesh = _mesh_for(mesh, indenter, depths[-1])
+    imesh = _mesh_for(mesh, indenter, depths[-1], material)
     problem = IndentationProblem(imesh, material, indenter, depths[-1], penalty=penalty, rtol=rtol)
     if solve_at_outputs:
         solved = depths
@@ -203,7 +211,7 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
 
 def _simulate_protocol(material, indenter, protocol: Protocol, mesh, penalty, rtol, keep_state, progress):
     """Solve at every point of a depth-time history."""
-    imesh = _mesh_for(mesh, indenter, protocol.max_depth_mm)
+    imesh = _mesh_for(mesh, indenter, protocol.max_depth_mm, material)
     problem = IndentationProblem(imesh, material, indenter, protocol.max_depth_mm, penalty=penalty, rtol=rtol)
     cb = (lambda i: progress(i, protocol.depth_mm.size)) if progress else None
     forces, u, report = problem.solve(protocol.depth_mm, progress=cb, times_s=protocol.time_s)

@@ -28,6 +28,7 @@ import numpy as np
 from scipy import sparse
 from skfem import Basis, ElementTriP2, ElementVector
 
+from .layers import LayeredSample
 from .materials import Material
 
 #: (row, column) of the five non-zero components of F, order used throughout.
@@ -101,9 +102,8 @@ class AxisymmetricSolid:
     ----------
     mesh : skfem.MeshTri
         Reference configuration, lengths in mm.
-    material : Material
-        The constitutive law, or a callable ``material_at(element_indices)`` via
-        ``regions`` for layered bodies.
+    material : Material or LayeredSample
+        The constitutive law, or a layered sample (materials by depth).
     element : skfem element, optional
         Scalar element (default :class:`~skfem.ElementTriP2`), used for both components.
     intorder : int
@@ -153,7 +153,7 @@ class AxisymmetricSolid:
         if regions is None:
             if material is None:
                 raise ValueError("give a material or regions")
-            regions = [(np.arange(nel), material)]
+            regions = material.regions(x[1]) if isinstance(material, LayeredSample) else [(np.arange(nel), material)]
         self.regions = [(_selector(np.asarray(ix), (nel, nq)), mat) for ix, mat in regions]
         self.small_strain = all(m.small_strain for _, m in self.regions)
         if len({m.small_strain for _, m in self.regions}) > 1:

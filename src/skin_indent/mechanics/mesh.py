@@ -62,6 +62,8 @@ MESH_FAMILY = {
     "fine": MeshDesign("fine", contact_elements=24.0),
 }
 DEFAULT_MESH = "medium"
+#: Element size along material interfaces under the contact, in surface sizes s0.
+INTERFACE_SIZE = 1.0
 
 
 @dataclass(frozen=True)
@@ -113,7 +115,8 @@ def _longest_edge(mesh: MeshTri) -> np.ndarray:
     return np.max(edges, axis=0)
 
 
-def graded_mesh(radius_mm: float, depth_mm: float, design: MeshDesign | str = DEFAULT_MESH) -> IndentationMesh:
+def graded_mesh(radius_mm: float, depth_mm: float, design: MeshDesign | str = DEFAULT_MESH, *,
+                interfaces_mm=(), rigid_base_mm: float | None = None) -> IndentationMesh:
     """Build the graded mesh for a sphere of radius R pressed to depth h_max.
 
     Parameters
@@ -124,6 +127,14 @@ def graded_mesh(radius_mm: float, depth_mm: float, design: MeshDesign | str = DE
         Largest indentation depth h_max the mesh is designed for, mm.
     design : MeshDesign or str
         A design or the name of a member of :data:`MESH_FAMILY`.
+    interfaces_mm : sequence of float
+        Depths of material interfaces (layers), mm: under the contact (r up to
+        the patch radius plus the interface depth) the elements along them are as
+        small as on the surface.
+    rigid_base_mm : float, optional
+        Depth of a rigid base: the domain is then ``[0, Lr] x [-T, 0]`` with
+        ``Lr = min(L, 10 a + 40 T)`` (the field of a layer on a rigid base decays
+        within a few thicknesses of the contact).
 
     Returns
     -------
@@ -139,28 +150,46 @@ def graded_mesh(radius_mm: float, depth_mm: float, design: MeshDesign | str = DE
     s0 = a / design.contact_elements
     patch = design.patch * a
     L = design.extent * a
-    mesh = MeshTri.init_tensor(np.array([0.0, L]), np.array([-L, 0.0]))
+    interfaces = np.asarray(interfaces_mm, dtype=float)
+    if rigid_base_mm is None:
+        Lr = Lz = L
+        mesh = MeshTri.init_tensor(np.array([0.0, L]), np.array([-L, 0.0]))
+    else:
+        if not (math.isfinite(rigid_base_mm) and rigid_base_mm > 0):
+            raise ValueError(f"rigid base depth must be > 0 mm, got {rigid_base_mm}")
+        Lz, Lr = rigid_base_mm, min(L, 10 * a + 40 * rigid_base_mm)
+        columns = max(1, int(math.ceil(Lr / Lz)))
+        rows = max(1, int(math.ceil(Lz / Lr)))
+        mesh = MeshTri.init_tensor(np.linspace(0.0, Lr, columns + 1), np.linspace(-Lz, 0.0, rows + 1))
     for _ in range(200):
         centroid = mesh.p[:, mesh.t].mean(axis=1)
         size = _longest_edge(mesh)
         d = np.maximum(_distance_to_patch(centroid, patch, design.depth_growth) - design.depth_growth * size, 0.0)
         target = s0 + design.growth * d
+        for t in interfaces[interfaces < Lz]:  # interfaces under the contact: elements of ~INTERFACE_SIZE s0
+            shifted = centroid + np.array([[0.0], [t]])
+            d_t = np.maximum(_distance_to_patch(shifted, patch) - size, 0.0)
+            target = np.minimum(target, INTERFACE_SIZE * s0 + design.growth * d_t)
         marked = np.nonzero(size > target)[0]
         if marked.size == 0:
             break
         mesh = mesh.refined(marked)
-    mesh = _with_named_boundaries(mesh, L)
-    name = f"{design.name} (generated: P2 on {mesh.t.shape[1]} triangles, a={a:.4g} mm, s0={s0:.3g} mm, L={L:.4g} mm)"
-    return IndentationMesh(mesh, name, a, s0, L)
+    mesh = _with_named_boundaries(mesh, Lr, Lz)
+    base = f", rigid base at {Lz:.4g} mm" if rigid_base_mm is not None else ""
+    layers = f", {interfaces.size} interface(s)" if interfaces.size else ""
+    name = (f"{design.name} (generated: P2 on {mesh.t.shape[1]} triangles, a={a:.4g} mm, s0={s0:.3g} mm, "
+            f"L={Lr:.4g} mm{base}{layers})")
+    return IndentationMesh(mesh, name, a, s0, Lr)
 
 
-def _with_named_boundaries(mesh: MeshTri, L: float) -> MeshTri:
-    tol = 1e-9 * L
+def _with_named_boundaries(mesh: MeshTri, L: float, Lz: float | None = None) -> MeshTri:
+    Lz = L if Lz is None else Lz
+    tol = 1e-9 * max(L, Lz)
     return mesh.with_boundaries(
         {
             "axis": lambda x: x[0] < tol,
             "top": lambda x: x[1] > -tol,
-            "bottom": lambda x: x[1] < -L + tol,
+            "bottom": lambda x: x[1] < -Lz + tol,
             "outer": lambda x: x[0] > L - tol,
         }
     )
@@ -199,7 +228,7 @@ def load_mesh(path: str | Path) -> IndentationMesh:
         raise ValueError(f"mesh file {path} holds no triangle cells")
     p = np.asarray(mio.points[:, :2], dtype=float).T
     mesh = MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(np.vstack(tri).T))
-    L = float(p[0].max())
+    L, Lz = float(p[0].max()), float(-p[1].min())
     if abs(p[1].max()) > 1e-9 * L or p[0].min() < -1e-9 * L:
         raise ValueError(f"mesh {path} must span r >= 0, z <= 0 with its free surface at z = 0")
     sidecar = path.with_suffix(".json")
@@ -208,7 +237,7 @@ def load_mesh(path: str | Path) -> IndentationMesh:
     r_top = np.sort(p[0, top])
     s0 = meta.get("surface_size_mm", float(np.diff(r_top[:2])[0]) if r_top.size > 1 else L)
     return IndentationMesh(
-        _with_named_boundaries(mesh, L),
+        _with_named_boundaries(mesh, L, Lz),
         f"{path.name} (read from file)",
         meta.get("contact_radius_mm", float("nan")),
         s0,

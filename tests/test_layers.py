@@ -1,0 +1,77 @@
+"""Layered samples against known answers: the half-space limit, Hertz of the top
+layer, Dimitriadis' bonded thin layer, and the independent finite-element curves."""
+
+import numpy as np
+import pytest
+from _data import load_curve
+
+from skin_indent.analytic import dimitriadis_bonded_force, hertz_force
+from skin_indent.mechanics import LinearElastic, NeoHooke, SphericalIndenter
+from skin_indent.mechanics.layers import RIGID, Layer, LayeredSample
+from skin_indent.simulate import simulate
+
+R = 6.22
+
+
+def test_layer_of_the_substrate_material_is_the_half_space():
+    law = NeoHooke(8.0, 0.45)
+    d = np.linspace(0.06, 0.6, 10)
+    homogeneous = simulate(law, SphericalIndenter(R), d, mesh="coarse").force_mN
+    layered = simulate(LayeredSample((Layer(1.0, law),), law), SphericalIndenter(R), d, mesh="coarse").force_mN
+    assert np.abs(layered / homogeneous - 1).max() < 2e-3
+
+
+def test_small_depth_limit_is_hertz_of_the_top_layer():
+    """As chi = sqrt(R h)/t -> 0 the force tends to Hertz of the top layer; a 10x stiffer
+    substrate adds a correction linear in chi (so it is still ~2% at chi = 0.025)."""
+    t = 5.0
+    sample = LayeredSample((Layer(t, NeoHooke(5.0, 0.45)),), NeoHooke(50.0, 0.45))
+    curve = simulate(sample, SphericalIndenter(R), 0.002 * R, 5, mesh="coarse")
+    ratio = curve.force_mN / hertz_force(curve.depth_mm, 5.0, 0.45, R)
+    chi = np.sqrt(R * curve.depth_mm) / t
+    slope, intercept = np.polyfit(chi, ratio, 1)
+    print(f"F/F_Hertz(top) = {intercept:.4f} + {slope:.3f} chi")
+    assert abs(intercept - 1) < 0.01 and slope > 0
+
+
+@pytest.mark.parametrize("nu", [0.3, 0.45])
+def test_thin_bonded_layer_on_rigid_base_vs_dimitriadis(nu):
+    """Small strain, chi = sqrt(R h)/t <= 0.3: the layer stiffens the contact by up to ~45%;
+    the FE agrees with the (fitted) Dimitriadis series to a small fraction of that."""
+    t = 2.0
+    depth = np.linspace(0.01, 0.09 * t**2 / R, 6)  # chi up to 0.3
+    curve = simulate(LayeredSample((Layer(t, LinearElastic(10.0, nu)),), RIGID), SphericalIndenter(R), depth)
+    stiffening = curve.force_mN / hertz_force(depth, 10.0, nu, R) - 1
+    mismatch = curve.force_mN / dimitriadis_bonded_force(depth, 10.0, nu, R, t) - 1
+    print(f"nu={nu}: stiffening {np.round(stiffening, 3)}, FE/Dimitriadis - 1 = {np.round(mismatch, 4)}")
+    assert stiffening[-1] > 0.3
+    assert np.abs(mismatch).max() < 0.025
+    assert np.all(np.abs(mismatch) < 0.06 * stiffening)
+
+
+@pytest.mark.parametrize("name, sample", [
+    ("hidden-effects/v02_layer_soft_base_exact.csv",
+     LayeredSample((Layer(1.0, NeoHooke(25.0, 0.45)),), NeoHooke(4.0, 0.45))),
+    ("hidden-effects/v03_layer_rigid_base_exact.csv", LayeredSample((Layer(3.0, NeoHooke(6.0, 0.45)),), RIGID)),
+    ("invivo-like/forearm_like_exact.csv",
+     LayeredSample((Layer(1.0, NeoHooke(17.54, 0.48)), Layer(3.0, NeoHooke(2.92, 0.48))), NeoHooke(9.35, 0.48))),
+])
+def test_independent_layered_curves(name, sample):
+    """The independent code's layered cases with their true parameters: within 2% for h >= 0.05 mm."""
+    data = load_curve(name)
+    d, F_ref = data[1:, 1], data[1:, 2]
+    curve = simulate(sample, SphericalIndenter(R), d)
+    err = np.abs(curve.force_mN / F_ref - 1)[d >= 0.05]
+    print(f"{name}: max error {err.max():.2e}; {curve.mesh_name}")
+    assert err.max() < 0.02
+
+
+def test_bad_layers():
+    with pytest.raises(ValueError, match="thickness"):
+        Layer(0.0, NeoHooke(1.0, 0.4))
+    with pytest.raises(ValueError, match="at least one"):
+        LayeredSample((), NeoHooke(1.0, 0.4))
+    with pytest.raises(ValueError, match="substrate"):
+        LayeredSample((Layer(1.0, NeoHooke(1.0, 0.4)),), "granite")
+    with pytest.raises(ValueError, match="small-strain or finite-strain"):
+        LayeredSample((Layer(1.0, LinearElastic(1.0, 0.4)),), NeoHooke(1.0, 0.4))
