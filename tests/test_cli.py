@@ -29,6 +29,7 @@ def test_simulate_writes_curve_and_fields(tmp_path):
     assert np.all(np.diff(data[:, 1]) > 0) and 15 < data[-1, 1] < 22  # ~ Hertz 18.6 mN minus ~2%
     assert vtu.stat().st_size > 1000
     assert str(out) in stdout and "mesh: coarse" in stdout
+    assert "peak force" in stdout
 
 
 @pytest.mark.parametrize("args, message", [
@@ -60,3 +61,36 @@ def test_cli_error_from_a_real_process_has_no_traceback():
     code, _, stderr = run_cli("simulate", "--nu", "0.7")
     assert code == 2
     assert stderr.strip() == "skin-indent simulate: error: nu must lie in (-1, 0.5), got 0.7"
+
+
+def test_simulate_effect_options(tmp_path):
+    """Layers, viscoelastic loading-unloading and a contact offset from the command line."""
+    layered, visco, shifted = (tmp_path / f"{n}.csv" for n in ("layered", "visco", "shifted"))
+    common = ["--mesh", "coarse", "--points", "6", "--depth", "0.3"]
+    assert main(["simulate", "--layer", "1,25,0.45", "--E", "4", "--nu", "0.45", "--out", str(layered), *common]) == 0
+    assert main(["simulate", "--prony", "0.4,5", "--E", "10", "--nu", "0.45", "--unload", "--out", str(visco),
+                 *common]) == 0
+    assert main(["simulate", "--offset", "0.1", "--out", str(shifted), *common]) == 0
+    t, d, F = np.loadtxt(visco, delimiter=",", skiprows=1).T
+    assert d.size == 12 and d.max() == pytest.approx(0.3) and F[-1] == 0.0  # contact lost at depth 0
+    up, down = F[:5], F[6:11][::-1]  # the same depths 0.05 ... 0.25 mm on the way in and out
+    assert np.all(down < up)  # viscoelastic hysteresis: less force on the way back
+    d, F = np.loadtxt(shifted, delimiter=",", skiprows=1).T
+    assert np.all(F[d <= 0.1] == 0) and np.all(F[d > 0.1] > 0)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--rigid-base"], "--rigid-base needs at least one --layer"),
+    (["--layer", "1,2"], "--layer THICKNESS_MM,E_KPA,NU must be 3 comma-separated numbers"),
+    (["--layer=-1,2,0.3"], "layer thickness must be"),
+    (["--prony", "1.2,5"], "Prony relative modulus g must lie in (0, 1)"),
+    (["--prony", "0.3,0"], "time constant"),
+    (["--C20", "3"], "--C20 needs --material neo-hooke-stiffening"),
+    (["--material", "neo-hooke-stiffening", "--C20", "-3"], "C20 must be >= 0"),
+    (["--offset", "nan"], "offset must be a finite number"),
+    (["--protocol", "missing.csv"], "missing.csv"),
+])
+def test_simulate_effect_options_bad_input(args, message, capsys):
+    assert main(["simulate", "--points", "3", "--depth", "0.05", "--mesh", "coarse", *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err

@@ -13,18 +13,53 @@ from pathlib import Path
 
 import numpy as np
 
-MATERIALS = ("neo-hooke", "linear-elastic")
+MATERIALS = ("neo-hooke", "linear-elastic", "neo-hooke-stiffening")
 
 
 class CLIError(Exception):
     """A user error, reported in one line."""
 
 
-def _material(name: str, E: float, nu: float):
-    from .mechanics.materials import LinearElastic, NeoHooke
+def _material(name: str, E: float, nu: float, C20: float = 0.0):
+    from .mechanics.materials import LinearElastic, NeoHooke, NeoHookeStiffening
 
+    if name == "neo-hooke-stiffening":
+        return NeoHookeStiffening(E_kPa=E, nu=nu, C20_kPa=C20)
+    if C20:
+        raise CLIError("--C20 needs --material neo-hooke-stiffening")
     laws = {"neo-hooke": NeoHooke, "linear-elastic": LinearElastic}
     return laws[name](E_kPa=E, nu=nu)
+
+
+def _numbers(text: str, count: int, what: str) -> list[float]:
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != count:
+        raise CLIError(f"{what} must be {count} comma-separated numbers, got {text!r}")
+    return values
+
+
+def _sample(args):
+    """The material, or the layered sample, described by the simulate options."""
+    from .mechanics.layers import RIGID, Layer, LayeredSample
+    from .mechanics.materials import PronyTerm, Viscoelastic
+
+    def law(E, nu):
+        base = _material(args.material, E, nu, args.C20)
+        if args.prony:
+            terms = tuple(PronyTerm(*_numbers(p, 2, "--prony G,TAU_S")) for p in args.prony)
+            return Viscoelastic(base, terms)
+        return base
+
+    if args.rigid_base and not args.layer:
+        raise CLIError("--rigid-base needs at least one --layer THICKNESS_MM,E_KPA,NU")
+    if not args.layer:
+        return law(args.E, args.nu)
+    layers = [Layer(t, law(E, nu)) for t, E, nu in (_numbers(x, 3, "--layer THICKNESS_MM,E_KPA,NU")
+                                                      for x in args.layer)]
+    return LayeredSample(tuple(layers), RIGID if args.rigid_base else law(args.E, args.nu))
 
 
 def _add_simulate(sub):
@@ -39,6 +74,17 @@ def _add_simulate(sub):
     p.add_argument("--points", type=int, default=100, help="number of equally spaced depths (default 100)")
     p.add_argument("--mesh", default="medium", help="coarse, medium (default), fine, or a mesh file")
     p.add_argument("--increments", type=int, default=None, help="solved increments (default: automatic)")
+    p.add_argument("--C20", type=float, default=0.0, help="stiffening parameter of neo-hooke-stiffening, kPa")
+    p.add_argument("--layer", action="append", default=[], metavar="THICKNESS_MM,E_KPA,NU",
+                   help="a bonded layer (repeatable, top first); --E/--nu then describe the half-space below")
+    p.add_argument("--rigid-base", action="store_true", help="the layers are bonded to a rigid base")
+    p.add_argument("--prony", action="append", default=[], metavar="G,TAU_S",
+                   help="a Prony term of quasi-linear viscoelasticity (repeatable); E is the instantaneous modulus")
+    p.add_argument("--protocol", type=Path, default=None,
+                   help="replay the time and depth history of a measurement CSV (with time_s)")
+    p.add_argument("--speed", type=float, default=0.02, help="loading speed of the default ramp, mm/s (0.02)")
+    p.add_argument("--unload", action="store_true", help="unload back to depth 0 after the ramp")
+    p.add_argument("--offset", type=float, default=0.0, help="contact begins at this recorded depth, mm")
     p.add_argument("--out", type=Path, default=Path("curve.csv"), help="output CSV (default curve.csv)")
     p.add_argument("--vtu", type=Path, default=None, help="also write the deformed mesh and fields at the last depth")
     p.set_defaults(run=_run_simulate)
@@ -46,21 +92,31 @@ def _add_simulate(sub):
 
 def _run_simulate(args) -> int:
     from .mechanics.contact import SphericalIndenter
+    from .measurement import load_csv
+    from .protocol import Protocol
     from .simulate import simulate
 
-    material = _material(args.material, args.E, args.nu)
+    material = _sample(args)
     indenter = SphericalIndenter(args.radius)
     for path in [args.out] + ([args.vtu] if args.vtu else []):
         if not path.parent.exists():
             raise CLIError(f"output folder does not exist: {path.parent}")
+    protocol = None
+    if args.protocol is not None:
+        protocol = Protocol.from_measurement(load_csv(args.protocol))
+    elif args.unload or not material.path_independent:
+        protocol = Protocol.ramp(args.depth, args.points, args.speed, unload=args.unload)
     curve = simulate(material, indenter, args.depth, args.points, mesh=args.mesh, increments=args.increments,
-                     keep_state=args.vtu is not None)
+                     protocol=protocol, offset_mm=args.offset, keep_state=args.vtu is not None)
     curve.to_csv(args.out)
-    print(f"material: {material.name}, E = {args.E:g} kPa, nu = {args.nu:g}; sphere R = {args.radius:g} mm")
+    print(f"model: {material.name} {material.parameters()}; sphere R = {args.radius:g} mm")
     print(f"mesh: {curve.mesh_name}")
     print(f"Newton: {curve.report.summary()}")
-    print(f"force at {curve.depth_mm[-1]:g} mm: {curve.force_mN[-1]:.6g} mN")
-    print(f"wrote {args.out} ({curve.depth_mm.size} rows: depth_mm,force_mN)")
+    k = int(np.argmax(curve.force_mN))
+    print(f"peak force {curve.force_mN[k]:.6g} mN at {curve.depth_mm[k]:g} mm"
+          + (f" (t = {curve.time_s[k]:g} s)" if curve.time_s is not None else ""))
+    columns = "time_s,depth_mm,force_mN" if curve.time_s is not None else "depth_mm,force_mN"
+    print(f"wrote {args.out} ({curve.depth_mm.size} rows: {columns})")
     if args.vtu:
         curve.write_vtu(args.vtu)
         print(f"wrote {args.vtu} (deformed mesh; displacement, contact pressure, Cauchy and von Mises stress)")

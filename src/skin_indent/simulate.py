@@ -129,8 +129,8 @@ def _mesh_for(mesh, indenter: SphericalIndenter, max_depth: float, sample=None) 
 
 def simulate(material: Material, indenter: SphericalIndenter | None = None, depth_mm=0.6, points: int = 100,
              *, mesh=DEFAULT_MESH, increments: int | None = None, solve_at_outputs: bool = False,
-             protocol: Protocol | None = None, penalty: float = PENALTY, rtol: float = RTOL,
-             keep_state: bool = False, progress=None) -> ForceDepthCurve:
+             protocol: Protocol | None = None, offset_mm: float = 0.0, penalty: float = PENALTY,
+             rtol: float = RTOL, keep_state: bool = False, progress=None) -> ForceDepthCurve:
     """Simulate the indentation of a half-space by a rigid sphere.
 
     Parameters
@@ -157,6 +157,9 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         Depth history with time (ramp, hold, unloading, or a measurement's); then
         ``depth_mm`` and ``points`` are ignored and every protocol point is solved.
         Required for history-dependent laws (viscoelastic).
+    offset_mm : float
+        Contact-point offset: contact begins at this *recorded* depth, so the
+        recorded force is F(depth - offset) and zero before (mm, either sign).
     penalty : float
         Dimensionless contact penalty (epsilon = penalty * E / sqrt(R h_max)).
     rtol : float
@@ -180,6 +183,12 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     if not isinstance(material, (Material, LayeredSample)):
         raise ValueError(f"material must be a skin_indent Material or LayeredSample, got {type(material).__name__}")
     indenter = indenter or SphericalIndenter()
+    if not (isinstance(offset_mm, (int, float, np.floating)) and math.isfinite(offset_mm)):
+        raise ValueError(f"offset must be a finite number in mm, got {offset_mm!r}")
+    if offset_mm != 0.0:
+        return _simulate_with_offset(material, indenter, depth_mm, points, float(offset_mm), protocol, mesh=mesh,
+                                     increments=increments, solve_at_outputs=solve_at_outputs, penalty=penalty,
+                                     rtol=rtol, keep_state=keep_state, progress=progress)
     if protocol is not None:
         return _simulate_protocol(material, indenter, protocol, mesh, penalty, rtol, keep_state, progress)
     if not material.path_independent:
@@ -207,6 +216,23 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         out = ratio(depths) * depths**1.5
     state = (problem, u, float(solved[-1])) if keep_state else None
     return ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state)
+
+
+def _simulate_with_offset(material, indenter, depth_mm, points, offset, protocol, **kwargs) -> ForceDepthCurve:
+    """The recorded curve F(depth - offset), zero where the sphere has not reached the surface."""
+    if protocol is not None:
+        shifted = simulate(material, indenter, protocol=Protocol(protocol.time_s, protocol.depth_mm - offset), **kwargs)
+        shifted.depth_mm = protocol.depth_mm
+        return shifted
+    recorded = _check_depths(depth_mm, points)
+    touching = recorded > offset
+    if np.count_nonzero(touching) < 2:
+        raise ValueError(f"with an offset of {offset:g} mm fewer than 2 depths reach the surface")
+    curve = simulate(material, indenter, recorded[touching] - offset, **kwargs)
+    force = np.zeros_like(recorded)
+    force[touching] = curve.force_mN
+    curve.depth_mm, curve.force_mN = recorded, force
+    return curve
 
 
 def _simulate_protocol(material, indenter, protocol: Protocol, mesh, penalty, rtol, keep_state, progress):
