@@ -1,0 +1,73 @@
+"""The effect vocabulary: names, off values that give back the base model, exact E-scaling."""
+
+import math
+
+import numpy as np
+import pytest
+
+from skin_indent.effects import EFFECTS, Model, effect
+from skin_indent.mechanics import NeoHooke
+from skin_indent.protocol import Protocol
+
+
+def test_vocabulary_names_and_units():
+    assert set(EFFECTS) >= {"layer", "stiffening", "viscoelastic", "offset"}
+    for e in EFFECTS.values():
+        for p in e.parameters:
+            assert p.unit and p.lower <= (p.off if p.off is not None else p.lower) <= p.upper
+            assert p.unit == "-" or p.name.endswith(p.unit.replace("/", "_per_")) or p.name.endswith("_" + p.unit)
+
+
+@pytest.mark.parametrize("name", ["layer", "stiffening", "viscoelastic", "offset"])
+def test_off_values_give_back_the_base_model_exactly(name):
+    model = Model((name,))
+    assert model.sample({"E_kPa": 7.0, "nu": 0.45}) == NeoHooke(7.0, 0.45)
+    d = np.linspace(0.05, 0.3, 4)
+    base = Model().simulate({"E_kPa": 7.0, "nu": 0.45}, d, mesh="coarse").force_mN
+    off = model.simulate({"E_kPa": 7.0, "nu": 0.45, **EFFECTS[name].off_values()}, d, mesh="coarse").force_mN
+    assert np.array_equal(base, off)
+
+
+@pytest.mark.parametrize("effects, theta", [
+    (("layer",), {"thickness_mm": 1.0, "ratio": 0.2}),
+    (("layer",), {"thickness_mm": 2.0, "ratio": math.inf}),
+    (("stiffening",), {"C20_kPa": 5.0}),
+])
+def test_force_is_proportional_to_E_with_effects(effects, theta):
+    model = Model(effects)
+    d = np.linspace(0.05, 0.3, 4)
+    one = {"E_kPa": 3.0, "nu": 0.45, **theta}
+    two = {**one, "E_kPa": 6.0}
+    if "C20_kPa" in theta:
+        two["C20_kPa"] = 2 * theta["C20_kPa"]
+    f1 = model.simulate(one, d, mesh="coarse").force_mN
+    f2 = model.simulate(two, d, mesh="coarse").force_mN
+    assert np.abs(f2 / (2 * f1) - 1).max() < 1e-8
+    assert model.unit_parameters(one) == model.unit_parameters(two)
+
+
+def test_viscoelastic_model_needs_a_protocol():
+    model = Model(("viscoelastic",))
+    theta = {"E_kPa": 10.0, "nu": 0.45, "g1": 0.4, "tau1_s": 5.0}
+    with pytest.raises(ValueError, match="needs a protocol"):
+        model.simulate(theta, np.linspace(0.05, 0.3, 4), mesh="coarse")
+    curve = model.simulate(theta, protocol=Protocol.ramp(0.3, 5), mesh="coarse")
+    assert curve.time_s is not None and curve.force_mN[-1] > 0
+
+
+@pytest.mark.parametrize("theta, message", [
+    ({"E_kPa": -1.0, "nu": 0.4}, "E_kPa = -1 is outside"),
+    ({"E_kPa": 1.0, "nu": 0.5}, "nu = 0.5 is outside"),
+    ({"E_kPa": 1.0, "nu": 0.4, "ratio": -2.0}, "ratio = -2 is outside"),
+    ({"E_kPa": 1.0, "nu": 0.4, "colour": 2.0}, "no parameter"),
+])
+def test_bad_parameters(theta, message):
+    with pytest.raises(ValueError, match=message):
+        Model(("layer",)).check(theta)
+
+
+def test_unknown_or_repeated_effect():
+    with pytest.raises(ValueError, match="unknown effect 'glue'"):
+        effect("glue")
+    with pytest.raises(ValueError, match="once"):
+        Model(("layer", "layer"))
