@@ -53,35 +53,29 @@ def plot_residuals(depth_mm, residuals: dict, noise_mN: float | None = None, ax=
     return ax
 
 
-def plot_sweep_history(result, axes=None):
-    """Parameters at the end of each sweep of a Kalman filter (the paper's Figs. 9 and 10)."""
+def _parameter_panels(x, columns, names, axes, xlabel, title):
+    """One panel per parameter: ``columns[:, k]`` against ``x``."""
     import matplotlib.pyplot as plt
 
-    sweeps = np.asarray(result.history["sweeps"])
-    names = result.free_names
     if axes is None:
         _, axes = plt.subplots(len(names), 1, sharex=True)
     axes = np.atleast_1d(axes)
-    for ax, name, col in zip(axes, names, sweeps.T):
-        ax.plot(np.arange(col.size), col, "-", lw=1.2)
+    for ax, name, col in zip(axes, names, np.asarray(columns).T):
+        ax.plot(np.asarray(x)[: col.size], col, "-", lw=1.2)
         ax.set_ylabel(name)
-    axes[-1].set_xlabel("sweep (global stabilisation)")
-    axes[0].set_title(f"{result.method}: {result.iterations} sweeps")
+    axes[-1].set_xlabel(xlabel)
+    axes[0].set_title(title)
     return axes
+
+
+def plot_sweep_history(result, axes=None):
+    """Parameters at the end of each sweep of a Kalman filter (the paper's Figs. 9 and 10)."""
+    sweeps = np.asarray(result.history["sweeps"])
+    return _parameter_panels(np.arange(len(sweeps)), sweeps, result.free_names, axes,
+                             "sweep (global stabilisation)", f"{result.method}: {result.iterations} sweeps")
 
 
 def plot_first_pass(result, depth_mm, axes=None):
     """Parameters after each update of the first forward pass (the paper's Figs. 6 and 7)."""
-    import matplotlib.pyplot as plt
-
-    first = np.asarray(result.history["first_pass"])
-    names = result.free_names
-    if axes is None:
-        _, axes = plt.subplots(len(names), 1, sharex=True)
-    axes = np.atleast_1d(axes)
-    for ax, name, col in zip(axes, names, first.T):
-        ax.plot(np.asarray(depth_mm)[: col.size], col, "-", lw=1.2)
-        ax.set_ylabel(name)
-    axes[-1].set_xlabel("depth of the measured point (mm)")
-    axes[0].set_title(f"{result.method}: first forward pass")
-    return axes
+    return _parameter_panels(depth_mm, result.history["first_pass"], result.free_names, axes,
+                             "depth of the measured point (mm)", f"{result.method}: first forward pass")
