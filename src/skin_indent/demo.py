@@ -64,7 +64,7 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
     lsq = results["lsq"]
     echo(f"noise level from the data: {noise:.3f} mN; least-squares misfit {lsq.rms_mN:.3f} mN "
          f"({lsq.rms_mN / noise:.1f} x noise)")
-    echo(f"nu: {prof.verdict}")
+    echo(f"is nu identifiable? {prof.verdict}")
     if lsq.rms_mN > 1.5 * noise:
         echo("the homogeneous half-space does not explain this curve to the noise level (as in the paper's "
              "Fig. 11): the residual is structured, something is missing from the model")

@@ -203,8 +203,15 @@ def profile(model, depth, force, name: str = "nu", values=None, *, x0=None,
     if identifiable:
         verdict = f"identifiable: {name} = {best_value:.4g}, 95% interval [{a95:.4g}, {b95:.4g}]"
     else:
-        verdict = (f"not identifiable in [{a95:.4g}, {b95:.4g}]: Delta chi2 stays below "
-                   f"{DELTA_CHI2_95:.2f} up to the {'lower and upper bounds' if oa and ob else ('lower bound' if oa else 'upper bound')}")
+        if oa and ob:
+            verdict = (f"not identifiable: Delta chi2 stays below {DELTA_CHI2_95:.2f} over the whole range "
+                       f"[{a95:.4g}, {b95:.4g}]")
+        elif ob:
+            verdict = (f"bounded only from below: {name} > {a95:.4g} (95%); Delta chi2 stays below "
+                       f"{DELTA_CHI2_95:.2f} up to the upper bound {b95:.4g}")
+        else:
+            verdict = (f"bounded only from above: {name} < {b95:.4g} (95%); Delta chi2 stays below "
+                       f"{DELTA_CHI2_95:.2f} down to the lower bound {a95:.4g}")
     return Profile(
         name=name, values=grid, chi2=chi2, delta_chi2=delta, rms_mN=np.sqrt(rss / problem.n), others=opt,
         best_value=float(best_value), chi2_min=chi2_min, noise_mN=sigma,
