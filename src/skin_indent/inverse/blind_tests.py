@@ -6,8 +6,8 @@ starts from the paper's initial values and must land back on the truth.
 
 Acceptance bands
 ----------------
-``ekf-paper``: |dE| <= 0.1 kPa and |dnu| <= 0.005 (the paper's own scatter).
-``ekf``, ``lsq``: |dE|/E <= 0.1% and |dnu| <= 0.002, entered within 10 sweeps
+``ekf-paper``: ``|dE| <= 0.1 kPa`` and ``|dnu| <= 0.005`` (the paper's own scatter).
+``ekf``, ``lsq``: ``|dE|/E <= 0.1%`` and ``|dnu| <= 0.002``, entered within 10 sweeps
 (ekf) or 10 function evaluations (lsq; >= iterations), and still inside at the end.
 All methods must also report convergence (``status > 0``).
 

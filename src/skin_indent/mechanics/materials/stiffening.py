@@ -59,7 +59,7 @@ class NeoHookeStiffening(Material):
     Evaluation from H without cancellation, with :math:`x = I_1 - 3 = 2\,\mathrm{tr}H + H:H`:
 
     * :math:`\bar I_1 - 3 = (3 + x)\,\mathrm{expm1}(-\tfrac23\ln J) + x`
-      (absolute error ~ machine epsilon times |H|, so the stiffening stress, of
+      (absolute error ~ machine epsilon times ``|H|``, so the stiffening stress, of
       order :math:`C_{20}|H|^3`, is accurate far below the neo-Hookean roundoff);
     * :math:`\partial\bar I_1/\partial F = J^{-2/3}(2F - \tfrac23 I_1 F^{-T})
       = J^{-2/3}\,(2(H + F^{-T}H^T) - \tfrac23 x F^{-T})`.
