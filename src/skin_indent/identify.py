@@ -139,3 +139,56 @@ def identify(data: Measurement, surface, method: str = "lsq", *, x0=None, fixed=
     if method == "ekf":
         return inverse.fit_ekf(surface, data.depth_mm, data.force_mN, x0, noise_mN=noise_mN, **kwargs)
     return inverse.fit_ekf_paper(surface, data.depth_mm, data.force_mN, x0, **kwargs)
+
+
+class ShiftedModel:
+    """A force model whose contact point is a parameter: F_rec(d) = F(d - offset_mm).
+
+    The recorded depth ``d`` starts at an arbitrary zero; contact begins at the
+    recorded depth ``offset_mm`` (a nuisance parameter, the ``offset`` effect), and
+    the force is zero before it. Implements the :class:`skin_indent.inverse.ForceModel`
+    protocol around any model that does (e.g. a :class:`ResponseSurface`), with the
+    depth derivative needed for the offset column of the Jacobian taken by central
+    differences of the model in depth (the surface is smooth in depth).
+
+    Parameters
+    ----------
+    model : ForceModel
+        Force as a function of the true depth h > 0 (mm).
+    offset_bounds_mm : (float, float)
+        Admissible offsets, mm.
+    """
+
+    def __init__(self, model, offset_bounds_mm: tuple[float, float]):
+        self.model = model
+        self.parameter_names = tuple(model.parameter_names) + ("offset_mm",)
+        lo, hi = (np.asarray(b, dtype=float) for b in model.bounds)
+        self.bounds = (np.r_[lo, offset_bounds_mm[0]], np.r_[hi, offset_bounds_mm[1]])
+        self.depth_range = getattr(model, "depth_range", (0.0, np.inf))
+
+    def _split(self, depth_mm, theta):
+        theta = np.asarray(theta, dtype=float)
+        h = np.asarray(depth_mm, dtype=float) - theta[-1]
+        if np.any(h > self.depth_range[1] * (1 + 1e-12)):
+            raise ValueError(f"depth minus offset reaches {h.max():.4g} mm, beyond the model's "
+                             f"{self.depth_range[1]:.4g} mm")
+        return h, h > 0, theta[:-1]
+
+    def force(self, depth_mm, theta) -> np.ndarray:
+        h, touching, inner = self._split(depth_mm, theta)
+        out = np.zeros_like(h)
+        if np.any(touching):
+            out[touching] = self.model.force(h[touching], inner)
+        return out
+
+    def jacobian(self, depth_mm, theta) -> np.ndarray:
+        h, touching, inner = self._split(depth_mm, theta)
+        J = np.zeros((h.size, len(self.parameter_names)))
+        if np.any(touching):
+            ht = h[touching]
+            J[touching, :-1] = self.model.jacobian(ht, inner)
+            step = 1e-4 * self.depth_range[1] if np.isfinite(self.depth_range[1]) else 1e-6
+            up = np.minimum(ht + step, self.depth_range[1])
+            down = np.maximum(ht - step, 0.5 * ht)
+            J[touching, -1] = -(self.model.force(up, inner) - self.model.force(down, inner)) / (up - down)
+        return J
