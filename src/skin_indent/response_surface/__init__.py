@@ -46,11 +46,28 @@ by the curve's own roughness: 6-8e-4 for every variant at h >= 0.05 mm, except t
 quartic of F (2.9e-2); below 0.05 mm, 1.5e-3 with h^1.5 scaling against 6-8e-3 for F.
 With ``scaling="none"`` depths below the first node are rejected (extrapolating F
 there is off by up to 30 %); otherwise they are extrapolated in the smooth ratio.
+
+Building at scale
+-----------------
+:meth:`ResponseSurface.build` hands the forward runs to an :class:`Executor`: this
+process (``workers=1``), local processes (default, :class:`LocalProcesses`), or a Dask
+cluster (``client=`` a ``dask.distributed.Client``, or ``scheduler="tcp://HOST:PORT"``;
+``pip install 'skin_indent[dask]'``). Whichever runs them, results come back to the
+building process, which alone writes the run cache (``cache_dir``), one run at a time,
+as they arrive: see :class:`RunStore` for the manifest, checksums and the lock that
+let a killed build resume without recomputing finished runs and several builds share
+one cache. A run that fails (``ConvergenceError``, bad values, a worker that died) is
+listed with its reason, its column is NaN, interpolation that needs it says so, and
+the next build retries it. :func:`run_batch` runs other batches of forward runs the
+same way.
 """
 
 
 from ._cache import default_cache_dir, default_settings, default_unit_curve, settings_hash
+from ._executors import (DASK_MISSING, DaskExecutor, Executor, InProcess, LocalProcesses, WorkerDied, make_executor,
+                         run_batch)
 from ._grid import SurfaceGrid, parse_range
+from ._store import RunStore
 from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, ResponseSurface
 
 __all__ = [
@@ -64,4 +81,13 @@ __all__ = [
     "METHODS",
     "DEPTH_INTERPS",
     "SCALINGS",
+    "Executor",
+    "InProcess",
+    "LocalProcesses",
+    "DaskExecutor",
+    "WorkerDied",
+    "make_executor",
+    "run_batch",
+    "RunStore",
+    "DASK_MISSING",
 ]

@@ -7,16 +7,17 @@ import os
 import pickle
 import warnings
 import zipfile
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
-from ._cache import (UnitCurve, _atomic_savez, _atomic_write, _canonical_json, _read_run, _resolve_model, _run_key, _run_one,
-                     _run_path, default_cache_dir, settings_hash)
+from ._cache import (UnitCurve, _atomic_savez, _canonical_json, _expected_code, _resolve_model, _run_key, _run_task,
+                     default_cache_dir, settings_hash)
+from ._executors import Executor, make_executor
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
+from ._store import RunStore
 
 METHODS = ("lagrange", "spline")
 DEPTH_INTERPS = ("lagrange", "quartic", "spline")
@@ -32,10 +33,23 @@ def _check_choice(name, value, choices):
     return value
 
 
-def _execute(unit_curve, nus, todo, depth, workers, progress, record):
-    """Run ``unit_curve`` at ``nus[k]`` for k in ``todo``; ``record(k, nu, values, reason)``."""
-    from tqdm.auto import tqdm
-
+def _choose_executor(unit_curve, workers, client, scheduler, executor, n_todo) -> tuple[Executor, bool]:
+    """``(executor, owned)``: the given one, Dask, local processes or this process."""
+    if executor is not None:
+        if workers is not None or client is not None or scheduler is not None:
+            raise ValueError("give executor= alone, without workers=, client= or scheduler=")
+        if not isinstance(executor, Executor):
+            raise TypeError(f"executor must be a skin_indent Executor, got {type(executor).__name__}")
+        executor.check_callable(unit_curve)
+        return executor, False
+    if client is not None or scheduler is not None:
+        ex = make_executor(workers, client=client, scheduler=scheduler)
+        try:
+            ex.check_callable(unit_curve)
+        except BaseException:
+            ex.close()
+            raise
+        return ex, True
     if workers is None or workers > 1:
         try:
             pickle.dumps(unit_curve)
@@ -44,28 +58,9 @@ def _execute(unit_curve, nus, todo, depth, workers, progress, record):
                 raise TypeError(f"unit_curve cannot be pickled for workers={workers} ({exc}); use a "
                                 "module-level function or a functools.partial of one, or workers=1") from None
             workers = 1
-    if workers is None:
-        workers = min(os.cpu_count() or 1, len(todo))
-    bar = tqdm(total=len(nus), initial=len(nus) - len(todo), disable=not progress,
-               desc="response surface", unit="run")
-    try:
-        if workers <= 1 or len(todo) <= 1:
-            for k in todo:
-                record(k, *_run_one(unit_curve, nus[k], depth))
-                bar.update()
-            return
-        pool = ProcessPoolExecutor(max_workers=workers)
-        try:
-            futures = {pool.submit(_run_one, unit_curve, nus[k], depth): k for k in todo}
-            for fut in as_completed(futures):
-                record(futures[fut], *fut.result())
-                bar.update()
-        except BaseException:  # a kill or Ctrl-C: finished runs are already on disk
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-        pool.shutdown()
-    finally:
-        bar.close()
+    if n_todo <= 1:
+        workers = 1
+    return make_executor(workers, tasks=n_todo), True
 
 
 class ResponseSurface:
@@ -146,7 +141,8 @@ class ResponseSurface:
     @classmethod
     def build(cls, grid: SurfaceGrid, unit_curve: UnitCurve | None = None, settings: Mapping | None = None,
               cache_dir: str | os.PathLike | None = None, workers: int | None = None,
-              progress: bool = True, **options) -> "ResponseSurface":
+              progress: bool = True, *, client=None, scheduler: str | None = None,
+              executor: Executor | None = None, **options) -> "ResponseSurface":
         """Run the unit curve once per nu and assemble the surface.
 
         Parameters
@@ -156,61 +152,120 @@ class ResponseSurface:
         unit_curve : callable, optional
             ``unit_curve(nu, depth_mm) -> force_mN`` at E = 1 kPa. Default: the FE model
             (:func:`default_unit_curve` of ``settings``). Must be picklable (module-level
-            function, or ``functools.partial`` of one) for ``workers > 1``.
+            function, or ``functools.partial`` of one) for ``workers > 1``; with Dask,
+            anything ``cloudpickle`` serialises, importable on the workers.
         settings : mapping, optional
             Description of the forward model; it keys the cache, so it must change
             whenever the unit curve's results would. Default: :func:`default_settings`
             for the FE curve, else the callable's qualified name and partial arguments.
         cache_dir : path, optional
-            If given, each finished run is written at once (atomically) to
-            ``cache_dir/runs/<key>/nu_<nu>.npz``, keyed by the settings and depths, and
-            a rerun (after a crash or kill) only computes the missing nu. Failed runs
-            are not stored and are retried. Default: nothing is written.
+            If given, each finished run is written at once by this process (whoever
+            computed it), atomically, to ``cache_dir/runs/<key>/``, keyed by the
+            settings and depths, and listed with its checksum in the directory's
+            ``manifest.json`` (see :class:`RunStore`). A rerun (after a crash or a kill
+            of this process or a worker) computes only what the manifest does not list
+            as done; failed runs are listed with their reason and retried. Several
+            processes may build into one cache at once; a run that another process
+            finishes meanwhile is read, not computed. Default: nothing is written.
         workers : int, optional
-            Local processes; default ``min(cpu_count, runs to do)``, or 1 if
-            ``unit_curve`` cannot be pickled.
+            Local processes; default ``min(available CPUs, runs to do)``, or 1 if
+            ``unit_curve`` cannot be pickled. 1 runs in this process.
         progress : bool
             Show a tqdm progress bar (stderr).
+        client : dask.distributed.Client, optional
+            Run the forward runs on this Dask cluster (needs ``pip install
+            'skin_indent[dask]'``); results still come back here and are cached here.
+            Every worker needs the same ``skin_indent``: a result computed with other
+            forward-model sources than ``settings["code_version"]`` names is refused
+            (listed as a failure).
+        scheduler : str, optional
+            Address of a Dask scheduler (``tcp://HOST:PORT``) to connect to instead.
+        executor : Executor, optional
+            An executor of :mod:`skin_indent.response_surface` (instead of the above).
         **options
             ``method``, ``depth_interp``, ``scaling`` of the returned surface.
 
         Returns
         -------
         ResponseSurface
-            A failed run (``unit_curve`` raised or returned bad values) leaves its
-            column NaN, is listed in ``failures`` and is reported by a RuntimeWarning.
+            A failed run (``unit_curve`` raised, e.g. ``ConvergenceError``, or returned
+            bad values, or its worker died) leaves its column NaN, is listed in
+            ``failures`` (and in the manifest) and is reported by a RuntimeWarning.
+
+        Raises
+        ------
+        ImportError
+            ``client`` or ``scheduler`` given without Dask installed.
+        OSError
+            The Dask scheduler cannot be reached, or the cache cannot be written.
         """
+        from tqdm.auto import tqdm
+
         unit_curve, settings = _resolve_model(unit_curve, settings)
         depth = np.array(grid.depth_mm)
-        f = np.full((depth.size, grid.nu.size), np.nan)
-        run_dir, key = None, _run_key(settings, depth)
-        todo = list(range(grid.nu.size))
-        if cache_dir is not None:
-            run_dir = Path(cache_dir) / "runs" / key[:24]
-            run_dir.mkdir(parents=True, exist_ok=True)
-            info = run_dir / "settings.json"  # for humans
-            if not info.exists():
-                _atomic_write(info, lambda fh: fh.write(
-                    json.dumps({"settings": settings, "depth_mm": depth.tolist()}, indent=1).encode()))
-            for k in list(todo):
-                done = _read_run(_run_path(run_dir, grid.nu[k]), float(grid.nu[k]), depth, key)
-                if done is not None:
-                    f[:, k] = done
-                    todo.remove(k)
-        failures = {}
+        nus = grid.nu
+        f = np.full((depth.size, nus.size), np.nan)
+        key = _run_key(settings, depth)
+        store = None if cache_dir is None else RunStore(Path(cache_dir) / "runs" / key[:24], key, settings, depth)
+        todo = []
+        for k, nu in enumerate(nus.tolist()):
+            done = store.load(nu) if store is not None else None
+            if done is None:
+                todo.append(k)
+            else:
+                f[:, k] = done
+        failures: dict[float, str] = {}
+        bar = tqdm(total=nus.size, initial=nus.size - len(todo), disable=not progress,
+                   desc="response surface", unit="run")
 
-        def record(k, nu, values, reason):
-            if values is None:
-                failures[float(nu)] = reason
-                warnings.warn(f"forward run at nu = {nu:g} failed ({reason}); column left missing",
-                              RuntimeWarning, stacklevel=3)
-                return
-            f[:, k] = values
-            if run_dir is not None:
-                _atomic_savez(_run_path(run_dir, nu), unit_force_mN=values, depth_mm=depth,
-                              nu=np.float64(nu), key=np.array(key))
+        def tasks():
+            for k in todo:
+                if store is not None:
+                    store.refresh()  # a stat; re-reads the manifest only if it changed
+                if store is not None and store.is_done(nus[k]):
+                    done = store.load(nus[k])  # another process finished it meanwhile
+                    if done is not None:
+                        f[:, k] = done
+                        bar.update()
+                        continue
+                yield k, (unit_curve, float(nus[k]), depth)
 
-        _execute(unit_curve, grid.nu, todo, depth, workers, progress, record)
+        def fail(k, nu, reason, worker=None):
+            failures[nu] = reason
+            if store is not None:
+                store.record_failed(nu, reason, worker=worker)
+            warnings.warn(f"forward run at nu = {nu:g} failed ({reason}); column left missing",
+                          RuntimeWarning, stacklevel=4)
+
+        try:
+            if todo:
+                ex, owned = _choose_executor(unit_curve, workers, client, scheduler, executor, len(todo))
+                # remote workers may run another installation: check what they ran (local
+                # processes run this one, which may be edited meanwhile in development)
+                expected_code = _expected_code(settings) if ex.remote else None
+                try:
+                    for k, out, error in ex.imap_unordered(_run_task, tasks()):
+                        nu = float(nus[k])
+                        bar.update()
+                        if error is not None:  # the call did not come back (worker died, ...)
+                            why = " ".join(str(error).split())
+                            fail(k, nu, f"{type(error).__name__}: {why}" if why else type(error).__name__)
+                        elif expected_code is not None and out["code"] != expected_code:
+                            fail(k, nu, f"worker {out['worker']} runs other forward-model sources "
+                                        f"(src.{out['code']}, expected src.{expected_code}): install the same "
+                                        "skin_indent everywhere", out["worker"])
+                        elif out["values"] is None:
+                            fail(k, nu, out["reason"], out["worker"])
+                        else:
+                            f[:, k] = out["values"]  # streamed to disk now; nothing else is kept
+                            if store is not None:
+                                store.record_done(nu, out["values"], seconds=out["seconds"],
+                                                  cpu_seconds=out.get("cpu_seconds"), worker=out["worker"])
+                finally:
+                    if owned:
+                        ex.close()
+        finally:
+            bar.close()
         return cls(grid, f, settings=settings, failures=failures, **options)
 
     # ------------------------------------------------------------ persistence
@@ -235,14 +290,34 @@ class ResponseSurface:
         **options
             Override the stored ``method``, ``depth_interp``, ``scaling``.
         """
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            if meta.get("format") != _FORMAT or meta.get("version") != _FORMAT_VERSION:
-                raise ValueError(f"{path}: not a response surface of format version {_FORMAT_VERSION}")
-            grid = SurfaceGrid(z["depth_mm"], z["E_kPa"], z["nu"])
-            out = cls(grid, z["unit_force_mN"], settings=meta["settings"], failures=dict(meta["failures"]),
+        for name, choices in (("method", METHODS), ("depth_interp", DEPTH_INTERPS), ("scaling", SCALINGS)):
+            if name in options:
+                _check_choice(name, options[name], choices)
+        path = Path(path)
+        with open(path, "rb") as fh:  # OSError (missing, a directory, no permission) as it is
+            magic = fh.read(4)
+        try:
+            if magic[:2] != b"PK":
+                raise ValueError("not an npz archive")
+            with np.load(path, allow_pickle=False) as z:
+                meta = json.loads(str(z["meta"]))
+                arrays = {k: np.array(z[k]) for k in ("depth_mm", "E_kPa", "nu", "unit_force_mN")}
+            if not isinstance(meta, dict):
+                raise ValueError("metadata is not a JSON object")
+        except Exception as err:  # noqa: BLE001 - any damage: one line that names the file
+            why = " ".join(str(err).split()) or type(err).__name__
+            raise ValueError(f"{path}: not a readable response surface file ({why})") from None
+        if meta.get("format") != _FORMAT or meta.get("version") != _FORMAT_VERSION:
+            raise ValueError(f"{path}: not a response surface of format version {_FORMAT_VERSION}")
+        try:
+            grid = SurfaceGrid(arrays["depth_mm"], arrays["E_kPa"], arrays["nu"])
+            out = cls(grid, arrays["unit_force_mN"], settings=meta["settings"], failures=dict(meta["failures"]),
                       **{**meta["options"], **options})
-        if out.hash != meta["hash"]:
+            stored_hash = str(meta["hash"])
+        except (ValueError, TypeError, KeyError) as err:
+            why = " ".join(str(err).split()) or type(err).__name__
+            raise ValueError(f"{path}: damaged response surface file ({why})") from None
+        if out.hash != stored_hash:
             raise ValueError(f"{path}: stored hash does not match its settings and grid (file edited?)")
         return out
 
@@ -250,7 +325,8 @@ class ResponseSurface:
     def load_or_build(cls, grid: SurfaceGrid, settings: Mapping | None = None,
                       unit_curve: UnitCurve | None = None, *, path: str | os.PathLike | None = None,
                       cache_dir: str | os.PathLike | None = None, workers: int | None = None,
-                      progress: bool = True, **options) -> "ResponseSurface":
+                      progress: bool = True, client=None, scheduler: str | None = None,
+                      executor: Executor | None = None, **options) -> "ResponseSurface":
         """Reuse a stored surface if its hash matches ``settings`` and ``grid``, else build.
 
         A stored surface with failed runs is rebuilt (finished runs are reused from the
@@ -259,7 +335,7 @@ class ResponseSurface:
 
         Parameters
         ----------
-        grid, settings, unit_curve, workers, progress, **options
+        grid, settings, unit_curve, workers, progress, client, scheduler, executor, **options
             As in :meth:`build` (``settings`` default as there).
         path : path, optional
             Surface file; default ``cache_dir/surfaces/<hash>.npz``.
@@ -277,8 +353,8 @@ class ResponseSurface:
                 stored = None
             if stored is not None and stored.hash == key and stored.complete:
                 return stored
-        out = cls.build(grid, unit_curve, settings, cache_dir=cache_dir, workers=workers,
-                        progress=progress, **options)
+        out = cls.build(grid, unit_curve, settings, cache_dir=cache_dir, workers=workers, progress=progress,
+                        client=client, scheduler=scheduler, executor=executor, **options)
         out.save(path)
         return out
 
