@@ -94,3 +94,11 @@ def test_simulate_effect_options_bad_input(args, message, capsys):
     assert main(["simulate", "--points", "3", "--depth", "0.05", "--mesh", "coarse", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
+
+
+def test_surface_build_without_dask_says_how_to_install_it(monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    monkeypatch.setitem(sys.modules, "dask", None)
+    code = main(["surface", "build", "--scheduler", "tcp://127.0.0.1:8786", "--nu", "0.3:0.4:2", "--points", "5"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and err == ["skin-indent surface: error: Dask is not installed: pip install 'skin_indent[dask]'"]

@@ -238,9 +238,6 @@ def test_huge_file_loads_in_reasonable_time_or_fails_cleanly(tmp_path, capsys, s
 
 
 # Known gaps in other modules, kept visible (strict: they fail loudly once fixed).
-@pytest.mark.xfail(strict=True, reason="identify/fitting_data keeps depth <= 0 rows, which the surface rejects "
-                                       "('depth_mm = 0 is outside the response surface'); the contact row "
-                                       "h = 0, F = 0 of a measured curve should be dropped before fitting")
 def test_fit_accepts_a_curve_that_starts_at_contact(tmp_path, capsys, surface_file):
     h = np.linspace(0.0, 0.5, 30)
     path = tmp_path / "from_contact.csv"
@@ -250,9 +247,6 @@ def test_fit_accepts_a_curve_that_starts_at_contact(tmp_path, capsys, surface_fi
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")  # overflow inside the fit
-@pytest.mark.xfail(strict=True, reason="a fit that ends on the box bound with forces of 1e300 mN exits 0 "
-                                       "(E = 100 kPa, std null) instead of reporting that the data are "
-                                       "outside the surface")
 def test_fit_rejects_absurd_forces(tmp_path, capsys, surface_file):
     path = tmp_path / "absurd.csv"
     path.write_text("depth_mm,force_mN\n0.1,1e300\n0.2,1e301\n0.3,1e302\n")

@@ -136,6 +136,9 @@ def _add_surface(sub):
     b.add_argument("--points", type=int, default=100, help="number of depths (default 100)")
     b.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
     b.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    b.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run the finite-element runs on this Dask scheduler (pip install 'skin_indent[dask]'); "
+                        "results are cached on this machine")
     b.add_argument("--out", type=Path, default=None, help="surface file (.npz); default the cache")
     b.set_defaults(run=_run_surface_build)
     p.set_defaults(run=lambda args: _missing_subcommand(p))
@@ -160,8 +163,11 @@ def _run_surface_build(args) -> int:
         raise CLIError(f"points must be an integer >= 4, got {args.points}")
     grid = SurfaceGrid(depth_mm=args.depth * np.arange(1, args.points + 1) / args.points,
                        E_kPa=parse_range(args.E), nu=parse_range(args.nu))
+    if args.scheduler is not None and args.workers is not None:
+        raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
     t = time.perf_counter()
-    surface = surface_for(args.radius, args.depth, grid=grid, path=args.out, workers=args.workers)
+    surface = surface_for(args.radius, args.depth, grid=grid, path=args.out, workers=args.workers,
+                          scheduler=args.scheduler)
     where = args.out or "the cache"
     print(f"surface {surface.hash[:12]}: {len(grid.E_kPa)} E x {len(grid.nu)} nu x {len(grid.depth_mm)} depths, "
           f"R = {args.radius:g} mm, ready in {time.perf_counter() - t:.1f} s ({where})")
@@ -275,6 +281,13 @@ def main(argv: list[str] | None = None) -> int:
     except (CLIError, ValueError, TypeError, ConvergenceError, OSError) as err:
         message = " ".join(str(err).split()) or type(err).__name__
         print(f"skin-indent {args.command}: error: {message}", file=sys.stderr)
+        return 2
+    except ImportError as err:  # an optional extra (dask) is missing: say how to install it
+        from .response_surface import DASK_MISSING
+
+        if str(err) != DASK_MISSING:
+            raise
+        print(f"skin-indent {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"skin-indent {args.command}: interrupted", file=sys.stderr)

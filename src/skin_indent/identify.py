@@ -45,9 +45,10 @@ def fitting_data(measurement: Measurement, window: tuple[float, float] | None = 
         data = measurement.loading().require_monotone_loading()
     else:
         data = measurement.require_monotone_loading()
-    if window is not None:
-        data = data.window(*window)
-    return data
+    lo = 0.0 if window is None else window[0]
+    hi = np.inf if window is None else window[1]
+    # depths <= 0 (the contact row h = 0, F = 0) say nothing about the material
+    return data.window(max(lo, np.nextafter(0.0, 1.0)), hi)
 
 
 def hertz_modulus(depth_mm, force_mN, radius_mm: float) -> float:
@@ -56,7 +57,8 @@ def hertz_modulus(depth_mm, force_mN, radius_mm: float) -> float:
     denom = float(shape @ shape)
     if denom <= 0:
         raise ValueError("cannot estimate a modulus: all depths are <= 0")
-    e_star = float(shape @ np.asarray(force_mN)) / denom
+    with np.errstate(over="ignore", invalid="ignore"):
+        e_star = float(shape @ np.asarray(force_mN)) / denom
     if not e_star > 0:
         raise ValueError("cannot estimate a modulus: the force does not increase with depth")
     return e_star
@@ -77,12 +79,17 @@ def default_grid(max_depth_mm: float, n_depth: int = 100) -> SurfaceGrid:
 
 
 def surface_for(radius_mm: float, max_depth_mm: float, *, grid: SurfaceGrid | None = None, path=None,
-                cache_dir=None, workers=None, progress: bool = True) -> ResponseSurface:
-    """Load or build the neo-Hookean response surface for a sphere and depth range."""
+                cache_dir=None, workers=None, progress: bool = True, client=None,
+                scheduler: str | None = None) -> ResponseSurface:
+    """Load or build the neo-Hookean response surface for a sphere and depth range.
+
+    ``client`` (a ``dask.distributed.Client``) or ``scheduler`` (``"tcp://HOST:PORT"``)
+    run the finite-element runs on a Dask cluster; by default local processes.
+    """
     grid = grid or default_grid(max_depth_mm)
     settings = default_settings(radius_mm=radius_mm)
     return ResponseSurface.load_or_build(grid, settings, path=path, cache_dir=cache_dir, workers=workers,
-                                         progress=progress)
+                                         progress=progress, client=client, scheduler=scheduler)
 
 
 def check_inside(surface, depth_mm) -> None:
@@ -129,6 +136,11 @@ def identify(data: Measurement, surface, method: str = "lsq", *, x0=None, fixed=
         raise MeasurementError(f"{data.source}: fewer than 3 points to fit")
     check_inside(surface, data.depth_mm)
     radius = radius_mm or float(surface.settings.get("radius_mm", 6.22))
+    e_star = hertz_modulus(data.depth_mm, data.force_mN, radius)
+    lo, hi = surface.bounds
+    if not (np.isfinite(e_star) and lo[0] / 3 <= e_star * (1 - 0.4**2) <= 3 * hi[0]):
+        raise ValueError(f"the data need E ~ {e_star * (1 - 0.4**2):.3g} kPa (Hertz estimate), far outside the "
+                         f"surface's {lo[0]:g}-{hi[0]:g} kPa: build a surface that covers it (surface build --E)")
     if x0 is None:
         x0 = start_values(surface, data.depth_mm, data.force_mN, radius)
     kwargs = {"fixed": fixed}

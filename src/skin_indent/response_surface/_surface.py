@@ -14,7 +14,7 @@ import numpy as np
 
 from ._cache import (UnitCurve, _atomic_savez, _canonical_json, _expected_code, _resolve_model, _run_key, _run_task,
                      default_cache_dir, settings_hash)
-from ._executors import Executor, make_executor
+from ._executors import Executor, _import_distributed, make_executor
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
 from ._store import RunStore
@@ -202,6 +202,8 @@ class ResponseSurface:
         from tqdm.auto import tqdm
 
         unit_curve, settings = _resolve_model(unit_curve, settings)
+        if (client is not None or scheduler is not None) and executor is None:
+            _import_distributed()  # fail with the install hint before any output
         depth = np.array(grid.depth_mm)
         nus = grid.nu
         f = np.full((depth.size, nus.size), np.nan)
