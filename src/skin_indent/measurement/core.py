@@ -230,7 +230,7 @@ class Measurement:
             i = int(bad[0]) + 1
             raise MeasurementError(
                 f"{self.source}: depth does not increase at index {i} "
-                f"({self.depth_mm[i - 1]!r} -> {self.depth_mm[i]!r} mm); a loading curve "
+                f"({float(self.depth_mm[i - 1])!r} -> {float(self.depth_mm[i])!r} mm); a loading curve "
                 "must be strictly increasing in depth (use .loading() for the approach segment)"
             )
         return self

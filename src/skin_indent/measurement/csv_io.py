@@ -203,7 +203,7 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
         t, i = values["time_s"], int(back[0])
         raise MeasurementError(
             f"{name}: line {line_numbers[i + 1]}, column 'time_s': time decreases "
-            f"({t[i]!r} -> {t[i + 1]!r})"
+            f"({float(t[i])!r} -> {float(t[i + 1])!r})"
         )
     columns = {key: {"column": original, "factor": factor}
                for key, (_, original, factor) in wanted.items()}
