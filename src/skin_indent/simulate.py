@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .mechanics.contact import SphericalIndenter
+from .mechanics.contact import ContactLaw, SphericalIndenter
 from .mechanics.layers import LayeredSample
 from .mechanics.materials import Material, NeoHooke
 from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh
@@ -130,7 +130,8 @@ def _mesh_for(mesh, indenter: SphericalIndenter, max_depth: float, sample=None) 
 def simulate(material: Material, indenter: SphericalIndenter | None = None, depth_mm=0.6, points: int = 100,
              *, mesh=DEFAULT_MESH, increments: int | None = None, solve_at_outputs: bool = False,
              protocol: Protocol | None = None, offset_mm: float = 0.0, penalty: float = PENALTY,
-             rtol: float = RTOL, keep_state: bool = False, progress=None) -> ForceDepthCurve:
+             rtol: float = RTOL, keep_state: bool = False, progress=None,
+             contact: ContactLaw | None = None) -> ForceDepthCurve:
     """Simulate the indentation of a half-space by a rigid sphere.
 
     Parameters
@@ -168,6 +169,9 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         Keep the final displacement field so that :meth:`ForceDepthCurve.write_vtu` works.
     progress : callable, optional
         ``progress(i, n)`` after each solved increment.
+    contact : ContactLaw, optional
+        Friction and adhesion between sphere and skin (default frictionless and
+        non-adhesive). Friction is history dependent: it needs a ``protocol``.
 
     Returns
     -------
@@ -188,14 +192,16 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     if offset_mm != 0.0:
         return _simulate_with_offset(material, indenter, depth_mm, points, float(offset_mm), protocol, mesh=mesh,
                                      increments=increments, solve_at_outputs=solve_at_outputs, penalty=penalty,
-                                     rtol=rtol, keep_state=keep_state, progress=progress)
+                                     rtol=rtol, keep_state=keep_state, progress=progress, contact=contact)
     if protocol is not None:
-        return _simulate_protocol(material, indenter, protocol, mesh, penalty, rtol, keep_state, progress)
+        return _simulate_protocol(material, indenter, protocol, mesh, penalty, rtol, keep_state, progress, contact)
     if not material.path_independent:
         raise ValueError(f"{material.name} depends on the loading history: give a protocol (time and depth)")
+    if not getattr(contact, "path_independent", True):
+        raise ValueError("friction depends on the loading history: give a protocol (time and depth)")
     depths = _check_depths(depth_mm, points)
     imesh = _mesh_for(mesh, indenter, depths[-1], material)
-    problem = IndentationProblem(imesh, material, indenter, depths[-1], penalty=penalty, rtol=rtol)
+    problem = IndentationProblem(imesh, material, indenter, depths[-1], penalty=penalty, rtol=rtol, contact=contact)
     if solve_at_outputs:
         solved = depths
     else:
@@ -235,10 +241,12 @@ def _simulate_with_offset(material, indenter, depth_mm, points, offset, protocol
     return curve
 
 
-def _simulate_protocol(material, indenter, protocol: Protocol, mesh, penalty, rtol, keep_state, progress):
+def _simulate_protocol(material, indenter, protocol: Protocol, mesh, penalty, rtol, keep_state, progress,
+                       contact=None):
     """Solve at every point of a depth-time history."""
     imesh = _mesh_for(mesh, indenter, protocol.max_depth_mm, material)
-    problem = IndentationProblem(imesh, material, indenter, protocol.max_depth_mm, penalty=penalty, rtol=rtol)
+    problem = IndentationProblem(imesh, material, indenter, protocol.max_depth_mm, penalty=penalty, rtol=rtol,
+                                 contact=contact)
     cb = (lambda i: progress(i, protocol.depth_mm.size)) if progress else None
     forces, u, report = problem.solve(protocol.depth_mm, progress=cb, times_s=protocol.time_s)
     state = (problem, u, float(protocol.depth_mm[-1])) if keep_state else None

@@ -4,13 +4,14 @@ Consecutive tangents of an incremental solution differ little, so the LU
 factorisation of an earlier tangent is an excellent preconditioner for the
 current one: :class:`TangentSolver` first tries conjugate gradients
 preconditioned with the stored factorisation (a few triangular solves), and
-refactorises with SuperLU only when that does not converge quickly.
+refactorises with SuperLU only when that does not converge quickly. Tangents
+that are not symmetric (frictional slip) use GMRES and a general LU instead.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse.linalg import LinearOperator, cg, splu
+from scipy.sparse.linalg import LinearOperator, cg, gmres, splu
 
 
 class TangentSolver:
@@ -22,16 +23,24 @@ class TangentSolver:
         Relative residual required of the preconditioned CG solution.
     max_cg : int
         CG iterations allowed before the tangent is refactorised.
+    symmetric : bool
+        False for tangents that may be non-symmetric: then GMRES (restarted
+        after ``max_cg`` iterations, one cycle) and an LU with partial pivoting.
     """
 
-    def __init__(self, rtol: float = 1e-10, max_cg: int = 12):
+    def __init__(self, rtol: float = 1e-10, max_cg: int = 12, symmetric: bool = True):
         self.rtol = rtol
         self.max_cg = max_cg
+        self.symmetric = symmetric
         self._lu = None
         self.factorisations = 0
         self.cg_solves = 0
 
     def _factorise(self, K):
+        if not self.symmetric:
+            self._lu = splu(K.tocsc(), permc_spec="COLAMD")
+            self.factorisations += 1
+            return
         self._lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                         options={"SymmetricMode": True})
         self.factorisations += 1
@@ -44,7 +53,11 @@ class TangentSolver:
         """
         if self._lu is not None:
             M = LinearOperator(K.shape, matvec=self._lu.solve, dtype=float)
-            x, info = cg(K, b, rtol=self.rtol if rtol is None else rtol, atol=0.0, maxiter=self.max_cg, M=M)
+            if self.symmetric:
+                x, info = cg(K, b, rtol=self.rtol if rtol is None else rtol, atol=0.0, maxiter=self.max_cg, M=M)
+            else:
+                x, info = gmres(K, b, rtol=self.rtol if rtol is None else rtol, atol=0.0, restart=self.max_cg,
+                                maxiter=1, M=M)
             if info == 0 and np.all(np.isfinite(x)):
                 self.cg_solves += 1
                 return x

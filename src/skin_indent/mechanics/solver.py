@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .axisymmetric import AxisymmetricSolid, SparsityPattern
-from .contact import SphereContact, SphericalIndenter
+from .contact import ContactLaw, SphereContact, SphericalIndenter
 from .linear import TangentSolver
 from .materials import Material
 from .predictor import SimilarityPredictor
@@ -103,11 +103,14 @@ class IndentationProblem:
         How often one increment may be halved before giving up.
     bottom : {"clamped", "rigid-base"}
         Bottom boundary condition (both fix u_r and u_z on z = -L).
+    contact : ContactLaw, optional
+        Friction and adhesion between sphere and body (default frictionless,
+        non-adhesive). Friction is history dependent: solve every depth in order.
     """
 
     def __init__(self, imesh: IndentationMesh, material: Material | None, indenter: SphericalIndenter,
                  max_depth_mm: float, penalty: float = 3.6e4, regions=None, rtol: float = 1e-6,
-                 max_iterations: int = 25, max_cuts: int = 8):
+                 max_iterations: int = 25, max_cuts: int = 8, contact: ContactLaw | None = None):
         self.imesh = imesh
         self.indenter = indenter
         self.solid = AxisymmetricSolid(imesh.mesh, material, regions=regions)
@@ -116,7 +119,7 @@ class IndentationProblem:
         # residual scale when nothing touches the sphere (unloading): a tiny force ~ E a^2
         self.force_floor = 1e-9 * e_ref * a**2
         self.contact = SphereContact(imesh.mesh, indenter, max_depth_mm, penalty * e_ref / a,
-                                     small_strain=self.solid.small_strain)
+                                     small_strain=self.solid.small_strain, law=contact)
         b = self.solid.basis
         fixed = np.zeros(b.N, dtype=bool)
         fixed[b.get_dofs("axis").all("u^1")] = True
@@ -126,7 +129,7 @@ class IndentationProblem:
         self.pattern = SparsityPattern(self.solid.element_dofs, self.free)
         self.pattern.register(self.contact.element_dofs)
         self.rtol = rtol
-        self.linear_solver = TangentSolver()
+        self.linear_solver = TangentSolver(symmetric=self.contact.symmetric_tangent)
         self.max_iterations = max_iterations
         self.max_cuts = max_cuts
 
@@ -197,13 +200,28 @@ class IndentationProblem:
             du = np.zeros_like(u)
             du[free] = du_free
             g0 = float(r @ du_free)
+            if not g0 < 0 and self.contact.convex_fallback:  # adhesion: retry with a positive-definite tangent
+                Kc_convex = self.contact.forces(u, depth, tangent="convex")[1]
+                K = self.pattern.assemble([(self.solid.element_dofs, Ke), (self.contact.element_dofs, Kc_convex)])
+                du_free = self.linear_solver.solve(K, -r, rtol=min(1e-3, max(1e-2 * rel, 1e-10)))
+                du[free] = du_free
+                g0 = float(r @ du_free)
             if not g0 < 0:  # not a descent direction: the tangent is not positive definite here
-                break
+                # (a non-symmetric, frictional tangent has no potential to descend: go on)
+                if self.contact.symmetric_tangent or not np.isfinite(g0):
+                    break
             f_int, Ke, f_c, Kc, force = self._evaluate(u + du, depth)
             g1 = float((f_int + f_c)[free] @ du_free)
-            if g1 > 0.9 * abs(g0):  # overshoot: by the trapezoid rule the potential did not decrease
+            if g0 < 0 and g1 > 0.9 * abs(g0):  # overshoot: by the trapezoid rule the potential did not decrease
                 alpha = self._line_search(u, du, g0, g1, depth, report)
                 f_int, Ke, f_c, Kc, force = self._evaluate(u + alpha * du, depth)
+                du *= alpha
+            elif not self.contact.symmetric_tangent:  # frictional: halve steps that raise the residual
+                alpha = 1.0
+                while np.linalg.norm((f_int + f_c)[free]) > np.linalg.norm(r) and alpha > 0.02:
+                    alpha *= 0.5
+                    report.line_search_backtracks += 1
+                    f_int, Ke, f_c, Kc, force = self._evaluate(u + alpha * du, depth)
                 du *= alpha
             u += du
         return False, it, rel, force
@@ -283,9 +301,11 @@ class IndentationProblem:
                 t_try = t_cur + (times[i + 1] - t_cur) / 2**cuts
                 trial = self._predict(u, u_prev, h_prev, h_cur, h_try, similarity)
                 self.solid.begin_step(t_try - t_cur)
+                self.contact.begin_step(t_try - t_cur)
                 ok, its, rel, force = self._newton(trial, h_try, report)
                 if ok:
                     self.solid.commit(trial, t_try - t_cur)
+                    self.contact.commit(trial, h_try)
                     u_prev, h_prev, h_cur, t_cur, u = u, h_cur, h_try, t_try, trial
                     report.increments += 1
                     report.iterations.append(its)
