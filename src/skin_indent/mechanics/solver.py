@@ -109,7 +109,7 @@ class IndentationProblem:
     """
 
     def __init__(self, imesh: IndentationMesh, material: Material | None, indenter: SphericalIndenter,
-                 max_depth_mm: float, penalty: float = 3.6e4, regions=None, rtol: float = 1e-6,
+                 max_depth_mm: float, penalty: float = 1.2e4, regions=None, rtol: float = 1e-6,
                  max_iterations: int = 25, max_cuts: int = 8, contact: ContactLaw | None = None):
         self.imesh = imesh
         self.indenter = indenter
