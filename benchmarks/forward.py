@@ -172,7 +172,7 @@ def refinement_study(material, indenter, levels: int = 2) -> dict:
         extrapolated = f3 + (f3 - f2) / (2**p - 1) if math.isfinite(p) and p > 0 else float("nan")
         triples.append({"F1-F2": f1 - f2, "F2-F3": f2 - f3, "ratio": ratio, "observed_order": p,
                         "richardson_F_mN": extrapolated})
-    return {"meshes": rows, "triples": triples, **triples[0]}
+    return {"meshes": rows, "triples": triples, **(triples[0] if triples else {})}
 
 
 def bench_felupe(ref, felupe_tol: float) -> dict:

@@ -89,6 +89,8 @@ def test_simulate_effect_options(tmp_path):
     (["--material", "neo-hooke-stiffening", "--C20", "-3"], "C20 must be >= 0"),
     (["--offset", "nan"], "offset must be a finite number"),
     (["--protocol", "missing.csv"], "missing.csv"),
+    (["--friction", "-0.2"], "friction"),
+    (["--adhesion", "nan"], "adhesion"),
 ])
 def test_simulate_effect_options_bad_input(args, message, capsys):
     assert main(["simulate", "--points", "3", "--depth", "0.05", "--mesh", "coarse", *args]) == 2

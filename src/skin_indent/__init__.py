@@ -26,6 +26,7 @@ _EXPORTS = {
     "Viscoelastic": "skin_indent.mechanics.materials",
     "PronyTerm": "skin_indent.mechanics.materials",
     "SphericalIndenter": "skin_indent.mechanics.contact",
+    "ContactLaw": "skin_indent.mechanics.contact",
     "Layer": "skin_indent.mechanics.layers",
     "LayeredSample": "skin_indent.mechanics.layers",
     "RIGID": "skin_indent.mechanics.layers",

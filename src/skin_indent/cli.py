@@ -85,6 +85,11 @@ def _add_simulate(sub):
     p.add_argument("--speed", type=float, default=0.02, help="loading speed of the default ramp, mm/s (0.02)")
     p.add_argument("--unload", action="store_true", help="unload back to depth 0 after the ramp")
     p.add_argument("--offset", type=float, default=0.0, help="contact begins at this recorded depth, mm")
+    p.add_argument("--friction", type=float, default=0.0, metavar="MU",
+                   help="Coulomb friction coefficient between sphere and skin (history dependent: solved along "
+                        "the protocol)")
+    p.add_argument("--adhesion", type=float, default=0.0, metavar="W_MJ_PER_M2",
+                   help="work of adhesion, mJ/m^2 (attractive traction; pull-off on unloading)")
     p.add_argument("--out", type=Path, default=Path("curve.csv"), help="output CSV (default curve.csv)")
     p.add_argument("--vtu", type=Path, default=None, help="also write the deformed mesh and fields at the last depth")
     p.set_defaults(run=_run_simulate)
@@ -101,13 +106,16 @@ def _run_simulate(args) -> int:
     for path in [args.out] + ([args.vtu] if args.vtu else []):
         if not path.parent.exists():
             raise CLIError(f"output folder does not exist: {path.parent}")
+    from .mechanics.contact import ContactLaw
+
+    contact = ContactLaw(friction=args.friction, adhesion_mJ_per_m2=args.adhesion)
     protocol = None
     if args.protocol is not None:
         protocol = Protocol.from_measurement(load_csv(args.protocol))
-    elif args.unload or not material.path_independent:
+    elif args.unload or not material.path_independent or args.friction > 0:
         protocol = Protocol.ramp(args.depth, args.points, args.speed, unload=args.unload)
     curve = simulate(material, indenter, args.depth, args.points, mesh=args.mesh, increments=args.increments,
-                     protocol=protocol, offset_mm=args.offset, keep_state=args.vtu is not None)
+                     protocol=protocol, offset_mm=args.offset, keep_state=args.vtu is not None, contact=contact)
     curve.to_csv(args.out)
     print(f"model: {material.name} {material.parameters()}; sphere R = {args.radius:g} mm")
     print(f"mesh: {curve.mesh_name}")
