@@ -1,4 +1,4 @@
-"""Test data access: everything lives in tests/data (never ../shared, which a user's clone lacks)."""
+"""Test data access: everything lives in tests/data, inside the project (a user's clone has nothing else)."""
 
 from pathlib import Path
 

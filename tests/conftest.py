@@ -1,4 +1,4 @@
-"""Shared test fixtures: data paths (never ../shared: a user's clone has no such folder)."""
+"""Test fixtures: data paths inside the project (tests/data), the only data a user's clone has."""
 
 import pytest
 from _data import load_curve
