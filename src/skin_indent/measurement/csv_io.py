@@ -12,10 +12,11 @@ import csv
 import io
 import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from .._atomic import atomic_write
 
 from ._errors import MeasurementError, _quote
 from .core import _MIN_POINTS, Measurement
@@ -226,14 +227,4 @@ def save_csv(measurement: Measurement, path) -> Path:
         header.insert(0, "time_s")
         cols.insert(0, measurement.time_s)
     lines = [",".join(header)] + [",".join(repr(float(v)) for v in row) for row in zip(*cols)]
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write("\n".join(lines) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return atomic_write(path, lambda fh: fh.write(("\n".join(lines) + "\n").encode("utf-8")))

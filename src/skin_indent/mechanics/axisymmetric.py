@@ -247,17 +247,13 @@ class AxisymmetricSolid:
         Returns a dict with ``cauchy_rr, cauchy_zz, cauchy_tt, cauchy_rz, von_mises``
         of shape (nel,).
         """
-        from .materials.base import det_minus_one, identity_like
+        from .materials.base import cauchy_stress
 
         F = self.displacement_gradient(u)
         sig = np.empty((3, 3) + F.shape[2:])
         for (ix, _), mat in zip(self.regions, self._active):
             H = F[:, :, ix]
-            P = mat.stress(H)
-            if self.small_strain:
-                sig[:, :, ix] = P
-            else:  # sigma = P F^T / J
-                sig[:, :, ix] = np.einsum("iJ...,kJ...->ik...", P, identity_like(H) + H) / (1.0 + det_minus_one(H))
+            sig[:, :, ix] = cauchy_stress(mat.stress(H), H, self.small_strain)
         w = self.basis.dx / self.basis.dx.sum(axis=1, keepdims=True)
         avg = lambda a: np.sum(a * w, axis=1)  # noqa: E731
         s = {

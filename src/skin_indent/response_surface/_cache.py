@@ -7,13 +7,13 @@ import hashlib
 import json
 import os
 import socket
-import tempfile
 import time
 from pathlib import Path
 from typing import Callable, Mapping
 
 import numpy as np
 
+from .._atomic import atomic_write
 from ._grid import SurfaceGrid
 
 UnitCurve = Callable[[float, np.ndarray], np.ndarray]
@@ -124,20 +124,7 @@ def default_cache_dir() -> Path:
     return Path(env) if env else Path.home() / ".cache" / "skin_indent"
 
 
-def _atomic_write(path: Path, write) -> None:
-    """Call ``write(binary file)`` on a temporary file next to ``path``, then rename it."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix="." + path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+_atomic_write = atomic_write  # the package-wide atomic writer
 
 
 def _atomic_savez(path: Path, **arrays) -> None:

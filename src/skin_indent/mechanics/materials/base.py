@@ -106,6 +106,13 @@ def kinematics(H: np.ndarray):
     return F, Finv, np.log1p(jm1), 1.0 + jm1
 
 
+def cauchy_stress(P: np.ndarray, H: np.ndarray, small_strain: bool = False) -> np.ndarray:
+    """Cauchy stress ``P F^T / J`` (kPa) from the first Piola stress; ``P`` itself in small strain."""
+    if small_strain:
+        return P
+    return np.einsum("iJ...,kJ...->ik...", P, identity_like(H) + H) / (1.0 + det_minus_one(H))
+
+
 class Material:
     """Base class of the constitutive laws.
 
@@ -166,9 +173,4 @@ class Material:
 
     def cauchy(self, H: np.ndarray) -> np.ndarray:
         """Cauchy stress sigma = P F^T / J in kPa (true stress)."""
-        P = self.stress(H)
-        if self.small_strain:
-            return P
-        F = identity_like(H) + H
-        J = 1.0 + det_minus_one(H)
-        return np.einsum("iJ...,kJ...->ik...", P, F) / J
+        return cauchy_stress(self.stress(H), H, self.small_strain)
