@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import inspect
-import json
 import math
 import os
 import platform
@@ -38,15 +37,10 @@ from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-try:  # installed (pip install -e .) or run from a checkout
-    import skin_indent  # noqa: F401
-except ImportError:  # pragma: no cover - depends on the environment
-    sys.path.insert(0, str(ROOT / "src"))
-    import skin_indent  # noqa: F401
+from _bench import HERE, ROOT, write_results  # noqa: E402,F401  (makes skin_indent importable from a checkout)
 
 from skin_indent.mechanics import IndentationMesh, NeoHooke, SphericalIndenter, graded_mesh  # noqa: E402
+import skin_indent  # noqa: E402
 from skin_indent.simulate import simulate  # noqa: E402
 
 sys.path.insert(0, str(HERE))
@@ -309,12 +303,7 @@ def main(argv=None) -> dict:
             print()
 
     results["machine"]["loadavg_end"] = os.getloadavg()
-    out = args.output
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if out.parent == RESULTS and not (RESULTS / ".gitignore").exists():
-        (RESULTS / ".gitignore").write_text("*\n")
-    out.write_text(json.dumps(results, indent=2, default=float) + "\n")
-    print(f"\nwritten {out}")
+    write_results(results, args.output)
     return results
 
 

@@ -191,3 +191,19 @@ def test_default_range_is_a_tenth_of_the_largest_depth():
     prob = IndentationProblem(graded_mesh(R, 0.3, "coarse"), NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.3,
                               contact=ContactLaw(adhesion_mJ_per_m2=20.0))
     assert prob.contact.range_mm == pytest.approx(0.03)
+
+
+def test_short_range_adhesion_touches_and_unloads_without_step_cuts():
+    """Finite strain, mu_T = 1.16 (w = 5 mJ/m^2, range 0.01 mm), 10 loading and 10 unloading
+    steps on the coarse mesh. First touch used to put trial states with inverted elements
+    (non-finite residual) into the iteration and the first unloading step started from the
+    deepest state: 3 step cuts and 331 line-search evaluations. Now such trial steps are
+    shortened and the reversal is predicted along the last increment: no cuts."""
+    prot = Protocol.ramp(0.1, 10, 0.02, unload=True)
+    curve = simulate(NeoHooke(8.0, 0.45), SphericalIndenter(R), protocol=prot, mesh="coarse",
+                     contact=ContactLaw(adhesion_mJ_per_m2=5.0, adhesion_range_mm=0.01))
+    rep = curve.report
+    print(rep.summary(), "min force", curve.force_mN.min())
+    assert rep.step_cuts == 0 and rep.line_search_backtracks < 100
+    assert curve.force_mN.min() == pytest.approx(-0.14150862625, rel=1e-6)  # the pull-off (before: same value)
+    assert curve.force_mN[9] > 0 > curve.force_mN[-1]  # pressed at full depth, adhered at depth 0

@@ -71,3 +71,24 @@ def test_unknown_or_repeated_effect():
         effect("glue")
     with pytest.raises(ValueError, match="once"):
         Model(("layer", "layer"))
+
+
+@pytest.mark.parametrize("name, on", [("friction", {"mu": 0.5}), ("adhesion", {"w_mJ_per_m2": 5.0})])
+def test_contact_effects_switch_off_exactly_and_scale_with_E(name, on):
+    """Friction and adhesion are contact laws: off gives the frictionless curve bit for bit;
+    on, F(2E, 2w) = 2 F(E, w) (w / E is the unit parameter)."""
+    model = Model((name,))
+    ramp = Protocol.ramp(0.2, 6)
+    base = Model().simulate({"E_kPa": 7.0, "nu": 0.3}, protocol=ramp, mesh="coarse").force_mN
+    off = model.simulate({"E_kPa": 7.0, "nu": 0.3, **EFFECTS[name].off_values()}, protocol=ramp,
+                         mesh="coarse").force_mN
+    assert np.array_equal(base, off)
+    if name == "friction":  # stick and slip depend on the path; the adhesive traction law does not
+        with pytest.raises(ValueError, match="needs a protocol"):
+            model.simulate({"E_kPa": 7.0, "nu": 0.3, **on}, np.linspace(0.05, 0.2, 3), mesh="coarse")
+    one = {"E_kPa": 7.0, "nu": 0.3, **on}
+    two = {**one, "E_kPa": 14.0, **({"w_mJ_per_m2": 2 * on["w_mJ_per_m2"]} if name == "adhesion" else {})}
+    f1 = model.simulate(one, protocol=ramp, mesh="coarse").force_mN
+    f2 = model.simulate(two, protocol=ramp, mesh="coarse").force_mN
+    assert np.abs(f2[1:] / (2 * f1[1:]) - 1).max() < 1e-6 and not np.array_equal(f1, base)
+    assert model.unit_parameters(one) == model.unit_parameters(two)

@@ -88,6 +88,21 @@ def test_ex05_invivo_identifiability(run_example):
     assert abs(g["invivo_E"] - 5.7) < 0.2
 
 
+def test_ex06_diagnose(run_example):
+    g = run_example("ex06_diagnose.py")
+    # a layer on a soft half-space (independent FE): named, and adding it brings the error to the noise
+    assert g["verdict"] == "layer"
+    assert g["rms_ladder"][-1] < 1.3 * g["added"].noise_mN < g["rms_ladder"][0]
+    # three materials: the best single effect helps but leaves structure
+    assert g["best"].rms_mN < g["forearm"].base.rms_mN and not g["best"].white
+
+
+def test_ex07_dask_cluster(run_example):
+    pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install 'skin_indent[dask]')")
+    g = run_example("ex07_dask_cluster.py")
+    assert g["max_difference"] == 0.0  # where the runs happen does not change them
+
+
 def _sphinx_build(out: Path, *options: str) -> subprocess.CompletedProcess:
     cmd = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-b", "html", *options,
            str(DOCS), str(out / "html")]

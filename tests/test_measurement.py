@@ -495,3 +495,19 @@ def test_contact_of_stiff_layered_and_offset_skin_curves():
 def test_contact_on_flat_force_raises():
     m = measurement_from_arrays(np.linspace(0, 1, 20), np.zeros(20))
     assert_one_line_error(lambda: find_contact_point(m), "does not rise")
+
+
+def test_baseline_reports_tilt_significance_and_a_flat_version():
+    """A tilted pre-contact line is significant; a flat noisy one is not (scale-free: nN and um)."""
+    from skin_indent.measurement import estimate_baseline
+
+    rng = np.random.default_rng(0)
+    d = np.linspace(0, 0.05, 2000)  # mm (50 um)
+    noise = rng.normal(0, 1e-8, d.size)  # 0.01 nN
+    flat = estimate_baseline(measurement_from_arrays(d, 2e-6 + noise, np.arange(d.size) * 1e-3), fraction=1.0)
+    tilted = estimate_baseline(measurement_from_arrays(d, 2e-6 + 1e-5 * d + noise, np.arange(d.size) * 1e-3),
+                               fraction=1.0)
+    assert not flat.tilt_significant and tilted.tilt_significant
+    assert abs(tilted.slope_mN_per_mm - 1e-5) < 5 * tilted.slope_std_mN_per_mm
+    level = flat.flat()
+    assert level.slope_mN_per_mm == 0.0 and abs(level.offset_mN - 2e-6) < 3e-9

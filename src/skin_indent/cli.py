@@ -187,18 +187,30 @@ def _run_surface_build(args) -> int:
 
 
 def _add_fit(sub):
-    from .identify import METHODS
+    from .identify import CONTACT_MODES, METHODS
 
     p = sub.add_parser("fit", help="identify E and nu from a measured curve",
-                       description="Fit a neo-Hookean half-space to the loading part of a measured curve "
-                                   "(CSV with depth_mm|depth_um|depth_m, force_mN|force_N|force_uN, optional time_s).")
-    p.add_argument("data", type=Path, help="measurement CSV")
+                       description="Fit a neo-Hookean half-space to the loading (approach) segment of a measured "
+                                   "curve (CSV with depth_mm|depth_um|depth_m, force_mN|force_N|force_uN, optional "
+                                   "time_s; or an instrument file such as JPK .jpk-force with the optional "
+                                   "afmformats package). A curve that starts before contact gets its force baseline "
+                                   "subtracted (and reported) and its contact point fitted with the material.")
+    p.add_argument("data", type=Path, help="measurement CSV (or .jpk-force etc. with afmformats installed)")
     p.add_argument("--method", choices=METHODS, default="lsq",
                    help="ekf-paper: the paper's filter; ekf: better-conditioned filter; lsq: least squares (default)")
-    p.add_argument("--surface", type=Path, default=None, help="response surface file (default: cache, built if needed)")
-    p.add_argument("--window", default=None, help="depth window MIN:MAX in mm (e.g. 0.05:0.6)")
-    p.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
+    p.add_argument("--surface", type=Path, default=None,
+                   help="response surface file (default: cache, built if needed); a neo-Hookean surface of another "
+                        "radius is rescaled by similarity")
+    p.add_argument("--window", default=None,
+                   help="indentation depth window MIN:MAX in mm past the contact point (e.g. 0.05:0.6)")
+    p.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22; AFM: e.g. 0.0275)")
     p.add_argument("--start", default=None, help="start values E,nu (default: a Hertz estimate at nu = 0.4)")
+    p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                   help="hold a parameter fixed (repeatable): E_kPa, nu or contact_point_mm, e.g. --fix nu=0.499 "
+                        "(the FE law is compressible: 0.499 stands for incompressible)")
+    p.add_argument("--contact", choices=CONTACT_MODES, default="auto",
+                   help="contact point: auto (fitted if the curve has a pre-contact baseline, else recorded depth "
+                        "0; default), fit (always fitted), origin (recorded depth 0)")
     p.add_argument("--tol", type=float, default=None, help="stop rule C of the filters (default 1e-6)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=_run_fit)
@@ -215,33 +227,99 @@ def _parse_start(text):
 def _run_fit(args) -> int:
     import json
 
-    from .identify import fitting_data, identify, parse_window, surface_for
+    from .identify import SIMILARITY_RATIOS, fit_prepared, parse_fix, parse_window, prepare_fit, surface_for
+    from .measurement import load_curve
     from .mechanics.contact import SphericalIndenter
-    from .measurement import load_csv
     from .response_surface import ResponseSurface
 
     SphericalIndenter(args.radius)
-    measurement = load_csv(args.data, radius_mm=args.radius)
+    fixed = parse_fix(args.fix)
     window = parse_window(args.window) if args.window else None
-    data = fitting_data(measurement, window)
+    x0 = _parse_start(args.start) if args.start else None
+    measurement = load_curve(args.data, radius_mm=args.radius)
+    prepared = prepare_fit(measurement, window, contact=args.contact, fixed=fixed)
     if args.surface is not None:
         if not args.surface.is_file():
             raise CLIError(f"surface file not found: {args.surface}")
         surface = ResponseSurface.load(args.surface)
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - args.radius) > 1e-9 * args.radius:
-            raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for {args.radius:g} mm")
+            try:
+                surface = surface.at_radius(args.radius)
+            except ValueError:
+                raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for "
+                               f"{args.radius:g} mm") from None
     else:
-        surface = surface_for(args.radius, float(data.depth_mm.max()), progress=not args.json)
-    x0 = _parse_start(args.start) if args.start else None
-    result = identify(data, surface, args.method, x0=x0, tol=args.tol, radius_mm=args.radius)
+        depth = prepared.max_indentation_mm
+        if prepared.mode == "fit":  # room for the contact point to move earlier than its first guess
+            depth = max(depth, min(1.5 * depth, SIMILARITY_RATIOS[-1] * args.radius))
+        surface = surface_for(args.radius, depth, progress=not args.json)
+    fit = fit_prepared(prepared, surface, args.method, radius_mm=args.radius, fixed=fixed, x0=x0, tol=args.tol)
     if args.json:
-        print(json.dumps(result.to_dict()))
+        print(json.dumps(fit.to_dict()))
     else:
+        data = prepared.data
         print(f"data: {args.data} ({data.n_points} loading points from {data.depth_mm[0]:.4g} to "
               f"{data.depth_mm[-1]:.4g} mm), sphere R = {args.radius:g} mm")
-        print(result.report())
-    return 0 if result.success else 1
+        print(fit.report())
+    return 0 if fit.success else 1
+
+
+def _add_diagnose(sub):
+    from .diagnose.workflow import CANDIDATES
+
+    p = sub.add_parser("diagnose", help="compare model and measurement, name the missing physical effect",
+                       description="Fit the neo-Hookean half-space to every segment of a measured curve, test "
+                                   "whether the residual is noise, rank the missing effects by BIC, and refit "
+                                   "with effects added (--add) to watch the error fall.")
+    p.add_argument("data", type=Path, help="measurement CSV (time_s optional) or instrument file")
+    p.add_argument("--model", default="neo-hooke",
+                   help="base model: neo-hooke, optionally with effects, e.g. neo-hooke+layer (same as --add)")
+    p.add_argument("--candidates", default=",".join(CANDIDATES),
+                   help=f"comma-separated effects to test (default {','.join(CANDIDATES)})")
+    p.add_argument("--add", action="append", default=[], metavar="EFFECT",
+                   help="add an effect to the model (repeatable, in order): the error ladder")
+    p.add_argument("--noise", type=float, default=None, help="noise standard deviation, mN (default: from the data)")
+    p.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
+    p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="coarse",
+                   help="mesh of the finite-element runs behind the surfaces (default coarse: within 0.03%% of "
+                        "medium, below the 0.3%% model error that diagnosis allows)")
+    p.add_argument("--workers", type=int, default=None, help="local processes for building surfaces")
+    p.add_argument("--scheduler", default=None, help="Dask scheduler tcp://HOST:PORT for building surfaces")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--report", type=Path, default=None, metavar="DIR",
+                   help="write an HTML page with embedded figures and the PNG figures into DIR")
+    p.set_defaults(run=_run_diagnose)
+
+
+def _run_diagnose(args) -> int:
+    import json
+
+    from .diagnose import diagnose, write_report
+    from .mechanics.contact import SphericalIndenter
+    from .measurement import load_curve
+
+    SphericalIndenter(args.radius)
+    model = args.model.split("+")
+    if model[0] != "neo-hooke":
+        raise CLIError(f"--model must start with neo-hooke (the base law), got {args.model!r}")
+    add = [*model[1:], *args.add]
+    candidates = [c.strip() for c in args.candidates.split(",") if c.strip()]
+    measurement = load_curve(args.data, radius_mm=args.radius)
+    diag = diagnose(measurement, radius_mm=args.radius, candidates=candidates, add=add, noise_mN=args.noise,
+                    workers=args.workers, scheduler=args.scheduler, progress=not args.json, mesh=args.mesh)
+    if args.report is not None:
+        page = write_report(diag, args.report)
+    if args.json:
+        out = diag.to_dict()
+        if args.report is not None:
+            out["report"] = str(page)
+        print(json.dumps(out, allow_nan=False))
+    else:
+        print(diag.report())
+        if args.report is not None:
+            print(f"report: {page}")
+    return 0
 
 
 def _add_demo(sub):
@@ -271,6 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_simulate(sub)
     _add_surface(sub)
     _add_fit(sub)
+    _add_diagnose(sub)
     return parser
 
 

@@ -12,6 +12,13 @@ CLI, JSON, reports):
     strain stiffening, W = W_NH + C20 (I1b - 3)^2: ``C20_kPa``.
 ``viscoelastic``
     quasi-linear viscoelasticity with one Prony term: ``g1``, ``tau1_s``.
+``friction``
+    Coulomb friction between sphere and skin (regularised penalty, stick and
+    slip): ``mu``.
+``adhesion``
+    an attractive traction between sphere and skin: work of adhesion
+    ``w_mJ_per_m2`` (mJ/m^2 = 1e-3 mN/mm; its range is
+    :data:`ADHESION_RANGE_MM`), giving a pull-off force on unloading.
 ``offset``
     a shift of the contact point: ``offset_mm`` (a nuisance parameter of fits).
 
@@ -106,11 +113,20 @@ EFFECTS = {
         EffectParameter("g1", "-", 0.0, 0.95, 0.0, False, "relative modulus of the Prony term"),
         EffectParameter("tau1_s", "s", 1e-3, 1e4, None, True, "relaxation time of the Prony term", 1.0),
     ), True, "rate-dependent (quasi-linear viscoelastic) response"),
+    "friction": Effect("friction", (
+        EffectParameter("mu", "-", 0.0, 10.0, 0.0, False, "Coulomb friction coefficient (10: full stick)"),
+    ), True, "friction between sphere and skin (stick and slip)"),
+    "adhesion": Effect("adhesion", (
+        EffectParameter("w_mJ_per_m2", "mJ/m2", 0.0, math.inf, 0.0, False, "work of adhesion"),
+    ), False, "adhesion between sphere and skin (pull-off on unloading)"),
     "offset": Effect("offset", (
         EffectParameter("offset_mm", "mm", -math.inf, math.inf, 0.0, False,
                         "recorded depth at which contact begins"),
     ), False, "a shifted contact point (depth origin)"),
 }
+
+#: range of the adhesive traction law, mm (see :class:`~skin_indent.mechanics.contact.ContactLaw`)
+ADHESION_RANGE_MM = 0.06
 
 BASE_PARAMETERS = (
     EffectParameter("E_kPa", "kPa", 0.0, math.inf, None, True, "Young's modulus (of the top material)",
@@ -215,25 +231,36 @@ class Model:
             return LayeredSample((Layer(t["thickness_mm"], law(E)),), below)
         return law(E)
 
+    def contact(self, theta: dict):
+        """The :class:`~skin_indent.mechanics.contact.ContactLaw` of ``theta`` (frictionless, non-adhesive by default)."""
+        from .mechanics.contact import ContactLaw
+
+        t = self.check(theta)
+        return ContactLaw(friction=t.get("mu", 0.0), adhesion_mJ_per_m2=t.get("w_mJ_per_m2", 0.0),
+                          adhesion_range_mm=ADHESION_RANGE_MM)
+
     def simulate(self, theta: dict, depth_mm=None, *, protocol=None, mesh="medium", **kwargs):
         """Force-depth curve of the parameters ``theta`` (see :func:`skin_indent.simulate.simulate`).
 
-        History-dependent parameters need ``protocol``; the offset is applied to the
-        recorded depths.
+        History-dependent parameters (viscoelastic, friction, adhesion) need
+        ``protocol``; the offset is applied to the recorded depths.
         """
         from .simulate import simulate
 
         t = self.check(theta)
         sample = self.sample(t)
-        if protocol is None and not sample.path_independent:
+        contact = self.contact(t)
+        if protocol is None and not (sample.path_independent and contact.path_independent):
             raise ValueError(f"model {self.name} with these parameters needs a protocol (time and depth)")
         return simulate(sample, SphericalIndenter(self.radius_mm), depth_mm if protocol is None else 0.6,
-                        protocol=protocol, offset_mm=t.get("offset_mm", 0.0), mesh=mesh, **kwargs)
+                        protocol=protocol, offset_mm=t.get("offset_mm", 0.0), mesh=mesh,
+                        contact=kwargs.pop("contact", contact), **kwargs)
 
     def unit_parameters(self, theta: dict) -> dict:
-        """The parameters of the unit-modulus curve: moduli relative to E (C20 / E)."""
+        """The parameters of the unit-modulus curve: moduli relative to E (C20 / E, w / E)."""
         t = self.check(theta)
         out = {k: v for k, v in t.items() if k != "E_kPa"}
-        if "C20_kPa" in out:
-            out["C20_kPa"] = out["C20_kPa"] / t["E_kPa"]
+        for k in ("C20_kPa", "w_mJ_per_m2"):
+            if k in out:
+                out[k] = out[k] / t["E_kPa"]
         return out

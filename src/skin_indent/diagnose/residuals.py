@@ -99,7 +99,7 @@ def _autocorrelation(r, max_lag):
 
 
 def analyse_residuals(residuals, noise_mN: float, n_parameters: int = 0, *, alpha: float = ALPHA,
-                      max_lag: int | None = None) -> ResidualAnalysis:
+                      max_lag: int | None = None, noise_dof: float | None = None) -> ResidualAnalysis:
     """Test whether ``residuals`` (mN) are white noise of standard deviation ``noise_mN``.
 
     Parameters
@@ -114,6 +114,12 @@ def analyse_residuals(residuals, noise_mN: float, n_parameters: int = 0, *, alph
         Significance level.
     max_lag : int, optional
         Lags of the Ljung-Box test (default ``min(10, n // 5)``).
+    noise_dof : float, optional
+        Degrees of freedom of the noise level when it was *estimated* (from the same
+        curve): the misfit test is then the F test of ``(chi2 / dof)`` against
+        ``F(dof, noise_dof)``, since an estimated noise level is itself uncertain
+        (about 12% for 100 points, i.e. ~35 degrees of freedom). Default: the
+        noise level is known (chi-square test).
     """
     r = np.asarray(residuals, dtype=float)
     if r.ndim != 1 or r.size < 5 or not np.all(np.isfinite(r)):
@@ -123,7 +129,10 @@ def analyse_residuals(residuals, noise_mN: float, n_parameters: int = 0, *, alph
     n = r.size
     dof = max(n - int(n_parameters), 1)
     chi2 = float(r @ r) / noise_mN**2
-    chi2_p = float(stats.chi2.sf(chi2, dof))
+    if noise_dof is None:
+        chi2_p = float(stats.chi2.sf(chi2, dof))
+    else:
+        chi2_p = float(stats.f.sf(chi2 / dof, dof, max(float(noise_dof), 1.0)))
     # runs test on signs (zeros dropped)
     s = np.sign(r[r != 0])
     n_pos, n_neg = int(np.sum(s > 0)), int(np.sum(s < 0))

@@ -28,6 +28,8 @@ the modules, in the order data flows through them, are:
 - :mod:`.core`: :class:`Measurement`, :func:`measurement_from_arrays`;
 - :mod:`.csv_io`: :func:`load_csv`, :func:`save_csv` and the accepted column
   names :data:`DEPTH_COLUMNS`, :data:`FORCE_COLUMNS`, :data:`TIME_COLUMN`;
+- :mod:`.instrument`: :func:`load_curve`, CSV or (with the optional afmformats
+  package) JPK and other instrument files;
 - :mod:`.segments`: :class:`Segment`, :func:`find_segments`;
 - :mod:`.contact`: :class:`Baseline`, :func:`estimate_baseline`,
   :class:`ContactPoint`, :func:`find_contact_point`,
@@ -44,9 +46,11 @@ from .contact import (
 )
 from .core import Measurement, measurement_from_arrays
 from .csv_io import DEPTH_COLUMNS, FORCE_COLUMNS, TIME_COLUMN, load_csv, save_csv
+from .instrument import AFMFORMATS_MISSING, load_curve
 from .segments import Segment, find_segments
 
 __all__ = [
+    "AFMFORMATS_MISSING",
     "DEPTH_COLUMNS",
     "FORCE_COLUMNS",
     "TIME_COLUMN",
@@ -60,6 +64,7 @@ __all__ = [
     "find_contact_point",
     "find_segments",
     "load_csv",
+    "load_curve",
     "measurement_from_arrays",
     "save_csv",
 ]

@@ -52,6 +52,8 @@ class Baseline:
         Number of samples fitted.
     depth_range_mm : tuple of float
         First and last depth (mm) of those samples.
+    slope_std_mN_per_mm : float
+        Standard error of the tilt (mN/mm): noise / sqrt(sum (d - mean d)^2).
     """
 
     offset_mN: float
@@ -59,6 +61,17 @@ class Baseline:
     noise_mN: float
     n_points: int
     depth_range_mm: tuple[float, float] = (float("nan"), float("nan"))
+    slope_std_mN_per_mm: float = float("nan")
+
+    @property
+    def tilt_significant(self) -> bool:
+        """True if the tilt exceeds 3 standard errors (else the line is flat within noise)."""
+        return bool(abs(self.slope_mN_per_mm) > 3.0 * self.slope_std_mN_per_mm)
+
+    def flat(self) -> "Baseline":
+        """The constant baseline (tilt 0) through the line's value at the middle of the fitted depths."""
+        mid = 0.5 * (self.depth_range_mm[0] + self.depth_range_mm[1])
+        return Baseline(float(self.force_at(mid)), 0.0, self.noise_mN, self.n_points, self.depth_range_mm, 0.0)
 
     def force_at(self, depth_mm):
         """Baseline force (mN) at `depth_mm` (mm)."""
@@ -136,7 +149,9 @@ def _fit_baseline(approach: Measurement, fraction: float, max_depth_mm: float | 
             "at least 5 are needed"
         )
     offset, slope, noise = _robust_line(depth, force)
-    return Baseline(offset, slope, noise, int(depth.size), (float(depth[0]), float(depth[-1])))
+    spread = float(np.sqrt(np.sum((depth - depth.mean()) ** 2)))
+    slope_std = noise / spread if spread > 0 else float("inf")
+    return Baseline(offset, slope, noise, int(depth.size), (float(depth[0]), float(depth[-1])), slope_std)
 
 
 # --------------------------------------------------------------- Contact point

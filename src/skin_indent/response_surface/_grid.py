@@ -119,6 +119,45 @@ class SurfaceGrid:
             nu=np.linspace(0.2, 0.49, 6),
         )
 
+    @classmethod
+    def unit_radius(cls, depth_ratio_max: float = 0.5, n_depth: int = 100, *, E_kPa=None,
+                    nu=None) -> "SurfaceGrid":
+        """A grid for a sphere of radius 1 mm, reused for any radius by similarity.
+
+        For a neo-Hookean half-space F(h; E, R, nu) = E R^2 phi(h/R, nu) exactly (no
+        length scale in the law, and the mesh is scaled by sqrt(R h_max)), so a surface
+        built at R = 1 mm serves every radius (:meth:`ResponseSurface.at_radius`): its
+        depths (mm) are the ratios h/R.
+
+        Parameters
+        ----------
+        depth_ratio_max : float
+            Largest h/R (default 0.5), i.e. largest depth (mm) at R = 1 mm.
+        n_depth : int
+            Number of depths, equally spaced from ``depth_ratio_max / n_depth``.
+        E_kPa : array_like, optional
+            E nodes (kPa). Default 10 values geometric from 1e-4 to 1e5 kPa (0.1 Pa to
+            100 MPa: cells and gels to stiff tissue); F is exactly linear in E, so the
+            E axis only sets the admissible box.
+        nu : array_like, optional
+            nu nodes. Default 6 values from 0.2 to 0.499: the finite-element law is
+            compressible (nu < 0.5), and 0.499 is the nearly incompressible end that
+            AFM users ask for with "nu = 0.5" (E / (1 - nu^2) differs by 0.13%).
+        """
+        if not (np.isfinite(depth_ratio_max) and depth_ratio_max > 0):
+            raise ValueError(f"depth_ratio_max must be a finite number > 0, got {depth_ratio_max}")
+        return cls(
+            depth_mm=np.linspace(depth_ratio_max / n_depth, depth_ratio_max, n_depth),
+            E_kPa=np.geomspace(1e-4, 1e5, 10) if E_kPa is None else E_kPa,
+            nu=np.linspace(0.2, 0.499, 6) if nu is None else nu,
+        )
+
+    def scaled_depths(self, factor: float) -> "SurfaceGrid":
+        """The same grid with every depth multiplied by ``factor`` (> 0)."""
+        if not (np.isfinite(factor) and factor > 0):
+            raise ValueError(f"depth scale factor must be a finite number > 0, got {factor}")
+        return SurfaceGrid(self.depth_mm * factor, self.E_kPa, self.nu)
+
     @property
     def shape(self) -> tuple[int, int, int]:
         """``(n_depth, n_E, n_nu)``."""

@@ -360,6 +360,50 @@ class ResponseSurface:
         out.save(path)
         return out
 
+    def at_radius(self, radius_mm: float) -> "ResponseSurface":
+        """The same surface for another sphere radius, by exact similarity.
+
+        For the neo-Hookean half-space F(h; E, R, nu) = E R^2 phi(h/R, nu): the law
+        has no length scale and the finite-element mesh is scaled by sqrt(R h_max),
+        so a curve at radius R0 maps to radius R by depth x k and force x k^2 with
+        k = R / R0 (checked against direct runs to ~1e-9). The interpolation is
+        affine-invariant in depth, so the scaled surface interpolates exactly as the
+        original. Depths of the returned surface reach ``k x`` the original's.
+
+        Parameters
+        ----------
+        radius_mm : float
+            Sphere radius R (mm), > 0.
+
+        Returns
+        -------
+        ResponseSurface
+            ``self`` if the radius is the same; else a new surface whose settings
+            record ``radius_mm`` and, under ``"similarity"``, the source radius and hash.
+
+        Raises
+        ------
+        ValueError
+            If the surface does not record its radius or is not a homogeneous
+            neo-Hookean half-space (layers, custom unit curves: no similarity).
+        """
+        R = float(radius_mm)
+        if not (np.isfinite(R) and R > 0):
+            raise ValueError(f"radius must be a finite number > 0 mm, got {radius_mm}")
+        R0 = self.settings.get("radius_mm")
+        if R0 is None or self.settings.get("model") != "neo-hooke half-space":
+            raise ValueError("this surface cannot be rescaled to another radius: only a neo-Hookean half-space "
+                             "surface that records its radius_mm is self-similar")
+        R0 = float(R0)
+        if abs(R / R0 - 1) <= _RTOL_BOUNDS:
+            return self
+        k = R / R0
+        origin = self.settings.get("similarity", {"radius_mm": R0, "hash": self.hash})
+        settings = {**self.settings, "radius_mm": R, "similarity": origin}
+        kw = {"method": self.method, "depth_interp": self.depth_interp, "scaling": self.scaling}
+        return type(self)(self.grid.scaled_depths(k), self._f * k**2, settings=settings, failures=self.failures,
+                          **kw)
+
     # ------------------------------------------------------------ properties
     @property
     def unit_forces(self) -> np.ndarray:

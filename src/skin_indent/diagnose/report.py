@@ -1,0 +1,150 @@
+"""Figures and a self-contained HTML page of a :class:`~skin_indent.diagnose.workflow.Diagnosis`.
+
+:func:`write_report` writes ``fit.png`` (measurement and every fitted model),
+``residuals.png`` (residual of each model against depth, and against time when the
+curve has one, with the +-2 sigma noise band), ``ladder.png`` (RMS and BIC of each
+rung and candidate) and ``index.html``, which embeds the three figures as base64 PNG
+so that the page reads offline in any browser, with the verdict, the parameter table
+and the ladder.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_write
+
+FIGURES = ("fit.png", "residuals.png", "ladder.png")
+
+
+def _models(diag):
+    """Ladder rungs, then the ranked candidates (at most three), without duplicates."""
+    out, seen = [], set()
+    for f in (*diag.ladder, *diag.ranking[:3]):
+        if f.model not in seen:
+            seen.add(f.model)
+            out.append(f)
+    return out
+
+
+def _save(fig, path: Path) -> None:
+    atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110))
+
+
+def figures(diag, out_dir) -> list[Path]:
+    """Write the three PNG figures into ``out_dir``; returns their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    d = diag.data
+    models = _models(diag)
+    paths = []
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(d.depth_mm, d.force_mN, ".", ms=3, color="0.4", label="measurement")
+    for f in models:
+        ax.plot(d.depth_mm, f.prediction_mN, "-", lw=1.4, label=f"{f.model} (RMS {f.rms_mN:.3g} mN)")
+    ax.set_xlabel("depth (mm)")
+    ax.set_ylabel("force (mN)")
+    ax.set_title(f"{Path(d.source).name}: verdict {diag.verdict}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    paths.append(out / FIGURES[0])
+    _save(fig, paths[-1])
+    plt.close(fig)
+
+    timed = d.time_s is not None
+    fig, axes = plt.subplots(len(models), 2 if timed else 1, figsize=(9 if timed else 7, 2.2 * len(models)),
+                             squeeze=False, sharex="col")
+    band = 2.0 * diag.noise_mN
+    xs = [(d.depth_mm, "depth (mm)")] + ([(d.time_s, "time (s)")] if timed else [])
+    for row, f in zip(axes, models):
+        for ax, (x, label) in zip(row, xs):
+            ax.axhspan(-band, band, color="tab:green", alpha=0.15, lw=0)
+            for kind, color in (("approach", "tab:blue"), ("hold", "tab:orange"), ("retract", "tab:red")):
+                sel = d.kind == kind
+                if np.any(sel):
+                    ax.plot(x[sel], f.residual_mN[sel], ".", ms=3, color=color, label=kind)
+            ax.axhline(0.0, color="k", lw=0.6)
+            ax.set_ylabel("residual (mN)", fontsize=8)
+            ax.set_title(f"{f.model}: {'white' if f.white else 'structured'}", fontsize=9)
+
+    for ax, (_, label) in zip(axes[-1], xs):
+        ax.set_xlabel(label)
+    axes[0][0].legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    paths.append(out / FIGURES[1])
+    _save(fig, paths[-1])
+    plt.close(fig)
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6))
+    names = [f.model.replace("neo-hooke", "NH") for f in models]
+    a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
+    a1.axhline(diag.noise_mN, color="tab:green", ls="--", label="noise")
+    a1.axhline(1.3 * diag.noise_mN, color="tab:green", ls=":", label="1.3 x noise")
+    a1.set_ylabel("RMS residual (mN)")
+    a1.legend(fontsize=8)
+    a2.bar(names, [f.bic for f in models], color="tab:purple")
+    a2.set_ylabel("BIC")
+    for a in (a1, a2):
+        a.tick_params(axis="x", rotation=30, labelsize=7)
+    fig.tight_layout()
+    paths.append(out / FIGURES[2])
+    _save(fig, paths[-1])
+    plt.close(fig)
+    return paths
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        if math.isinf(v):
+            return "inf (rigid)" if v > 0 else "-inf"
+        if math.isnan(v):
+            return "-"
+        return f"{v:.4g}"
+    return html.escape(str(v))
+
+
+def write_report(diag, out_dir) -> Path:
+    """Write the PNG figures and ``index.html`` (figures embedded) into ``out_dir``; returns the page."""
+    out = Path(out_dir)
+    paths = figures(diag, out)
+    imgs = "\n".join(
+        f'<figure><img alt="{p.stem}" src="data:image/png;base64,{base64.b64encode(p.read_bytes()).decode()}">'
+        f"<figcaption>{p.name}</figcaption></figure>" for p in paths)
+    rows = []
+    for f in _models(diag):
+        params = ", ".join(f"{k} = {_fmt(v)} &plusmn; {_fmt(f.std.get(k, math.nan))}" for k, v in f.parameters.items())
+        rows.append(f"<tr><td>{html.escape(f.model)}</td><td>{f.rms_mN:.4g}</td><td>{f.bic:.1f}</td>"
+                    f"<td>{'yes' if f.white else 'no'}</td><td>{params}</td><td>{html.escape(f.structure)}</td></tr>")
+    nd = "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in diag.not_detectable.items())
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>skin-indent diagnose: {html.escape(Path(diag.data.source).name)}</title>
+<style>body{{font-family:sans-serif;max-width:1000px;margin:2em auto;line-height:1.4}}
+table{{border-collapse:collapse;font-size:0.85em}}td,th{{border:1px solid #ccc;padding:4px}}
+img{{max-width:100%}}.verdict{{font-size:1.1em;background:#eef;padding:0.8em}}</style></head>
+<body>
+<h1>Diagnosis of {html.escape(str(diag.data.source))}</h1>
+<p class="verdict" id="verdict"><b>Verdict: {html.escape(diag.verdict)}.</b> {html.escape(diag.sentence())}</p>
+<p>Noise {diag.noise_mN:.4g} mN ({html.escape(diag.noise_source)}); {diag.data.n} points
+(binned by {diag.data.binned}); effective sample size {diag.n_effective:.1f}; sphere R = {diag.radius_mm:g} mm.</p>
+<h2>Models</h2>
+<table><tr><th>model</th><th>RMS (mN)</th><th>BIC</th><th>white</th><th>parameters</th><th>where it fails</th></tr>
+{''.join(rows)}</table>
+<h2>Not detectable here</h2><ul>{nd or '<li>-</li>'}</ul>
+<h2>Figures</h2>
+{imgs}
+</body></html>
+"""
+    index = out / "index.html"
+    atomic_write(index, lambda fh: fh.write(page.encode()))
+    return index

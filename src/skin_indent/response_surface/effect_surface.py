@@ -1,0 +1,336 @@
+r"""Response surfaces over effect parameters: F(h; E, nu, p) for a :class:`~skin_indent.effects.Model`.
+
+Every model of :mod:`skin_indent.effects` is exactly proportional to the modulus of
+its top material once the other moduli are given relative to it
+(:meth:`Model.unit_parameters`), so
+
+.. math::
+
+    F(h; E, \nu, p) = E\, f(h; \nu, \bar p), \qquad \bar p = \text{unit parameters of } p,
+
+and a surface needs forward runs over :math:`(\nu, \bar p)` only. An
+:class:`EffectSurface` holds one :class:`ResponseSurface` (depth x nu, built and
+cached exactly like the neo-Hookean one: atomic, resumable, Dask-capable) per node of
+the effect axes, and interpolates log F between the runs with tensor-product splines
+(cubic with 4 or more nodes on an axis, else quadratic or linear) in a coordinate
+chosen per parameter: ``log(0.5 - nu)`` (a confined layer stiffens like
+``1 / (1 - 2 nu)``), log of a thickness, log(0.1 + compliance) with the compliance
+``E_top / E_below = 1 / ratio`` of a layer (so a rigid base, ratio = inf, is the
+node 0), and ``C20_over_E`` = C20 / E of stiffening.
+
+Runs that fail (e.g. a layer much thinner than the depth on a rigid base) are
+recorded with their reason by the run cache; an :class:`EffectSurface` with failed
+runs refuses to evaluate and says which.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+from scipy.interpolate import make_interp_spline
+
+from ._cache import default_cache_dir, default_settings
+from ._executors import Executor
+from ._grid import SurfaceGrid
+
+__all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve"]
+
+
+@dataclass(frozen=True)
+class EffectAxis:
+    """One effect axis of an :class:`EffectSurface`.
+
+    Attributes
+    ----------
+    name : str
+        The unit parameter fitted: ``thickness_mm``, ``compliance`` (= 1 / ratio,
+        E_top / E_below) or ``C20_over_E`` (C20 / E of stiffening).
+    nodes : tuple of float
+        Node values.
+    coordinate : {"linear", "log"}
+        Interpolation coordinate of the unit parameter: ``v`` or ``log(v + shift)``.
+    shift : float
+        Of the log coordinate (lets a node sit at 0, e.g. a rigid base).
+    """
+
+    name: str
+    nodes: tuple
+    coordinate: str = "linear"
+    shift: float = 0.0
+
+    def coords(self, values) -> np.ndarray:
+        v = np.asarray(values, dtype=float)
+        return np.log(v + self.shift) if self.coordinate == "log" else v
+
+    @property
+    def node_coords(self) -> np.ndarray:
+        return self.coords(self.nodes)
+
+
+def model_parameters(effect_names, axis_values: Mapping[str, float]) -> dict:
+    """Model parameters (``Model.check`` names) of unit-parameter axis values."""
+    out = {}
+    for name, value in axis_values.items():
+        if name == "compliance":
+            out["ratio"] = math.inf if value == 0 else 1.0 / value
+        elif name == "C20_over_E":
+            out["C20_kPa"] = float(value)  # at E = 1 kPa
+        else:
+            out[name] = float(value)
+    return out
+
+
+def default_axes(effect: str, max_depth_mm: float) -> tuple[EffectAxis, ...]:
+    """The effect axes used by diagnosis (nodes scale with the deepest depth).
+
+    ``layer``: thickness 1.5-17 times the deepest depth (log; a layer thinner than
+    ~1.5 depths on a rigid base is squeezed beyond what the FE model solves), and
+    compliance ``1 / ratio`` in [0, 8] (rigid base to an 8x softer half-space), in
+    the coordinate ``log(compliance + 0.1)``: there log F is nearly linear (springs in
+    series), where F itself falls threefold between a rigid base and ratio 8 under a
+    thin layer and a cubic in the compliance rings.
+    ``stiffening``: C20 / E in [0, 10].
+    """
+    if effect == "layer":
+        t = tuple(float(f"{max_depth_mm * k:.4g}") for k in (1.5, 2.5, 4.0, 6.5, 10.5, 17.0))
+        return (EffectAxis("thickness_mm", t, "log"),
+                EffectAxis("compliance", (0.0, 0.12, 0.3, 0.65, 1.4, 3.2, 8.0), "log", 0.1))
+    if effect == "stiffening":
+        return (EffectAxis("C20_over_E", (0.0, 0.3, 0.8, 1.6, 3.0, 5.5, 10.0), "linear"),)
+    raise ValueError(f"no effect surface for {effect!r} (surfaces exist for layer and stiffening)")
+
+
+def model_unit_curve(nu: float, depth_mm, *, effects: tuple, parameters: tuple, radius_mm: float,
+                     mesh: str) -> np.ndarray:
+    """Force (mN) at E = 1 kPa of ``Model(effects)`` with unit ``parameters`` ((name, value), ...)."""
+    from skin_indent.effects import Model  # lazy: mechanics is heavy
+
+    theta = {"E_kPa": 1.0, "nu": float(nu), **dict(parameters)}
+    return Model(tuple(effects), radius_mm).simulate(theta, np.asarray(depth_mm, float), mesh=mesh).force_mN
+
+
+class EffectSurface:
+    """Force ``F(h; E_kPa, nu, effect parameters...)`` (mN), interpolated from cached FE runs.
+
+    Implements the force-model protocol of :mod:`skin_indent.inverse`
+    (``parameter_names``, ``bounds``, ``force``, ``jacobian``, ``depth_range``).
+
+    Parameters
+    ----------
+    effects : tuple of str
+        Effect names of the model (path-independent effects only).
+    axes : tuple of EffectAxis
+    surfaces : ndarray of ResponseSurface
+        Shape ``tuple(len(a.nodes) for a in axes)``.
+    radius_mm : float
+    """
+
+    def __init__(self, effects, axes, surfaces, radius_mm: float):
+        self.effects = tuple(effects)
+        self.axes = tuple(axes)
+        self.surfaces = surfaces
+        self.radius_mm = float(radius_mm)
+        first = surfaces.flat[0]
+        self.grid = first.grid
+        self.parameter_names = ("E_kPa", "nu") + tuple(a.name for a in self.axes)
+        lo = [first.grid.E_kPa[0], first.grid.nu[0]]
+        hi = [first.grid.E_kPa[-1], first.grid.nu[-1]]
+        for a in self.axes:
+            lo.append(min(a.nodes))
+            hi.append(max(a.nodes))
+        self.bounds = (np.array(lo, float), np.array(hi, float))
+        self.depth_range = first.depth_range
+        self._last = None
+        self.failures = {}
+        for idx in itertools.product(*(range(len(a.nodes)) for a in self.axes)):
+            s = surfaces[idx]
+            if s.failures:
+                where = ", ".join(f"{a.name}={a.nodes[i]:g}" for a, i in zip(self.axes, idx))
+                for nu, why in s.failures.items():
+                    self.failures[f"{where}, nu={nu:g}"] = why
+
+    @property
+    def name(self) -> str:
+        return "neo-hooke" + "".join(f"+{e}" for e in self.effects)
+
+    # ------------------------------------------------------------------ build
+    @classmethod
+    def build(cls, effects, axes, grid: SurfaceGrid, *, radius_mm: float = 6.22, mesh: str = "medium",
+              cache_dir=None, workers=None, progress: bool = True, client=None, scheduler=None,
+              executor=None) -> "EffectSurface":
+        """Load or build the sub-surfaces (one per effect node; runs cached in ``cache_dir``).
+
+        Parameters
+        ----------
+        effects : tuple of str
+        axes : tuple of EffectAxis
+        grid : SurfaceGrid
+            Depths (mm), E range (kPa, bounds only: F is exactly linear in E) and nu nodes.
+        radius_mm : float
+            Sphere radius, mm.
+        mesh : str
+            Mesh family member.
+        cache_dir : path, optional
+            Default :func:`default_cache_dir`.
+        workers, client, scheduler, executor
+            As in :meth:`ResponseSurface.build`; one executor serves all sub-surfaces.
+        progress : bool
+            A tqdm bar over all runs.
+        """
+        from pathlib import Path
+
+        from tqdm.auto import tqdm
+
+        from ._cache import _resolve_model, _run_key, _run_task
+        from ._executors import make_executor
+        from ._store import RunStore
+        from ._surface import ResponseSurface
+
+        effects = tuple(effects)
+        cache_dir = Path(default_cache_dir() if cache_dir is None else cache_dir)
+        shape = tuple(len(a.nodes) for a in axes)
+        surfaces = np.empty(shape, dtype=object)
+        depth = np.array(grid.depth_mm)
+        pending = []
+        for idx in np.ndindex(shape):
+            unit = tuple((a.name, float(a.nodes[i])) for a, i in zip(axes, idx))
+            params = tuple(sorted(model_parameters(effects, dict(unit)).items()))
+            settings = {**default_settings(radius_mm=radius_mm, mesh=mesh),
+                        "model": "neo-hooke" + "".join(f"+{e}" for e in effects),
+                        "unit_curve": "skin_indent.response_surface.effect_surface.model_unit_curve",
+                        "unit_parameters": [[k, repr(v)] for k, v in params]}
+            curve = functools.partial(model_unit_curve, effects=effects, parameters=params,
+                                      radius_mm=float(radius_mm), mesh=mesh)
+            try:  # a cached surface (or one whose runs are all cached) needs no executor
+                surfaces[idx] = ResponseSurface.load_or_build(grid, settings, curve, cache_dir=cache_dir,
+                                                              progress=False, executor=_Never())
+            except _NeedsRuns:
+                pending.append((idx, curve, settings))
+        if not pending:
+            return cls(effects, axes, surfaces, radius_mm)
+        # all missing runs of all sub-surfaces in one stream, so that every worker stays busy
+        tasks, stores = [], {}
+        for idx, curve, settings in pending:
+            curve, canonical = _resolve_model(curve, settings)
+            key = _run_key(canonical, depth)
+            stores[idx] = store = RunStore(cache_dir / "runs" / key[:24], key, canonical, depth)
+            tasks += [((idx, float(nu)), (curve, float(nu), depth)) for nu in grid.nu if store.load(nu) is None]
+        owned = executor is None
+        ex = executor if executor is not None else make_executor(workers, client=client, scheduler=scheduler,
+                                                                 tasks=len(tasks))
+        bar = tqdm(total=len(tasks), disable=not progress, desc=" + ".join(effects) + " surface", unit="run")
+        try:
+            for (idx, nu), out, error in ex.imap_unordered(_run_task, iter(tasks)):
+                bar.update()
+                if error is not None:
+                    stores[idx].record_failed(nu, f"{type(error).__name__}: {' '.join(str(error).split())}")
+                elif out["values"] is None:
+                    stores[idx].record_failed(nu, out["reason"], worker=out["worker"])
+                else:
+                    stores[idx].record_done(nu, out["values"], seconds=out["seconds"],
+                                            cpu_seconds=out.get("cpu_seconds"), worker=out["worker"])
+            for idx, curve, settings in pending:  # assembled from the store; failed runs stay missing
+                surfaces[idx] = ResponseSurface.load_or_build(grid, settings, curve, cache_dir=cache_dir,
+                                                              progress=False, executor=_FailAgain())
+        finally:
+            bar.close()
+            if owned:
+                ex.close()
+        return cls(effects, axes, surfaces, radius_mm)
+
+    # ------------------------------------------------------------ evaluation
+    def _check(self, theta):
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape != (len(self.parameter_names),):
+            raise ValueError(f"theta must hold {self.parameter_names}, got shape {theta.shape}")
+        lo, hi = self.bounds
+        tol = 1e-9 * np.maximum(np.abs(lo), np.abs(hi)) + 1e-12
+        bad = ~np.isfinite(theta) | (theta < lo - tol) | (theta > hi + tol)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{self.parameter_names[i]} = {theta[i]:g} is outside the surface's "
+                             f"[{lo[i]:g}, {hi[i]:g}]")
+        if self.failures:
+            where, why = next(iter(self.failures.items()))
+            raise ValueError(f"the {self.name} surface misses {len(self.failures)} run(s) (e.g. {where}: {why})")
+        return theta
+
+    def _node_forces(self, h: np.ndarray) -> np.ndarray:
+        """log f at every node (effect nodes x nu nodes x depths); kept for the last depths asked."""
+        key = h.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        E0 = float(self.grid.E_kPa[0])
+        nus = self.grid.nu
+        V = np.empty(self.surfaces.shape + (nus.size,) + h.shape)
+        for idx in np.ndindex(self.surfaces.shape):
+            for j, nu in enumerate(nus):  # at a node the surface returns its run (no interpolation in nu)
+                V[idx + (j,)] = self.surfaces[idx].force(h, (E0, float(nu))) / E0
+        positive = bool(np.all(V > 0))
+        out = (np.log(V) if positive else V, positive)
+        self._last = (key, out)
+        return out
+
+    def unit_force(self, depth_mm, nu: float, unit_values) -> np.ndarray:
+        """f(h; nu, unit parameters), mN at E = 1 kPa.
+
+        Tensor-product splines of log f over the effect axes and over nu in the
+        coordinate ``log(0.5 - nu)``: a layer confined by a stiff base stiffens like
+        ``1 / (1 - 2 nu)`` towards incompressibility, a straight line there.
+        """
+        h = np.asarray(depth_mm, dtype=float)
+        V, positive = self._node_forces(h)
+        for a, x in zip(self.axes, unit_values):
+            xs = a.node_coords
+            V = make_interp_spline(xs, V, k=min(3, xs.size - 1), axis=0)(a.coords(x))
+        xs = np.log(0.5 - self.grid.nu)
+        V = make_interp_spline(xs[::-1], V[::-1], k=min(3, xs.size - 1), axis=0)(np.log(0.5 - nu))
+        return np.exp(V) if positive else V
+
+    def force(self, depth_mm, theta) -> np.ndarray:
+        """Force (mN) at the depths (mm) for ``theta = (E_kPa, nu, effect parameters...)``."""
+        theta = self._check(theta)
+        return theta[0] * self.unit_force(depth_mm, theta[1], theta[2:])
+
+    __call__ = force
+
+    def jacobian(self, depth_mm, theta) -> np.ndarray:
+        """dF/dtheta (mN per unit), central differences inside the box (one-sided at its faces)."""
+        theta = self._check(theta)
+        lo, hi = self.bounds
+        J = np.empty((np.size(depth_mm), theta.size))
+        J[:, 0] = self.force(depth_mm, theta) / theta[0]  # exactly linear in E
+        for i in range(1, theta.size):
+            step = 1e-5 * max(abs(theta[i]), 1e-2 * (hi[i] - lo[i]))
+            up, down = theta.copy(), theta.copy()
+            up[i] = min(theta[i] + step, hi[i])
+            down[i] = max(theta[i] - step, lo[i])
+            J[:, i] = (self.force(depth_mm, up) - self.force(depth_mm, down)) / (up[i] - down[i])
+        return J
+
+
+class _NeedsRuns(Exception):
+    pass
+
+
+class _Never(Executor):
+    """An executor stand-in that signals that runs are needed (a cached surface needs none)."""
+
+    def check_callable(self, fn):
+        raise _NeedsRuns
+
+    def imap_unordered(self, fn, tasks):
+        raise _NeedsRuns
+
+
+class _FailAgain(Executor):
+    """Reports the runs that just failed as failed again, without rerunning them."""
+
+    def imap_unordered(self, fn, tasks):
+        for tag, _args in tasks:
+            yield tag, None, RuntimeError("failed in this build (see the run manifest)")

@@ -1,0 +1,217 @@
+"""Diagnose: verdicts on curves with a hidden effect (independent FE code, and our own),
+the error ladder, the JSON schema, the report, the CLI.
+
+Surfaces are built on the coarse mesh into the temporary cache the gallery uses
+(the coarse family member is within ~0.1% of the fine one; diagnosis adds a 0.3%
+model error floor anyway), once per machine and forward-model version.
+"""
+
+import json
+import math
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from _data import DATA
+
+from skin_indent.diagnose import CANDIDATES, diagnose, write_report
+from skin_indent.diagnose.workflow import STRONG
+from skin_indent.measurement import load_csv, measurement_from_arrays
+
+HIDDEN = DATA / "hidden-effects"
+#: the answer key of tests/data/hidden-effects/README.md
+KEY = {"v01_clean": "none", "v02_layer_soft_base": "layer", "v03_layer_rigid_base": "layer",
+       "v04_stiffening": "stiffening", "v05_offset": "offset", "v06_viscoelastic": "viscoelastic"}
+SIGMA = 0.05  # mN, every hidden-effect curve
+
+
+@pytest.fixture(scope="session")
+def cache():
+    """The gallery's cache folder (ex06 diagnoses on the same coarse surfaces)."""
+    import tempfile
+    from pathlib import Path
+
+    return Path(tempfile.gettempdir()) / "skin_indent_gallery"
+
+
+@pytest.fixture(scope="session")
+def run(cache):
+    done = {}
+
+    def go(measurement, **kw):
+        key = (id(measurement), tuple(sorted((k, str(v)) for k, v in kw.items())))
+        if key not in done:
+            done[key] = diagnose(measurement, cache_dir=cache, mesh="coarse", workers=2, **kw)
+        return done[key]
+
+    return go
+
+
+@pytest.fixture(scope="session")
+def hidden():
+    return {name: load_csv(HIDDEN / f"{name}.csv") for name in KEY}
+
+
+@pytest.mark.parametrize("name", list(KEY))
+def test_hidden_effect_is_named_and_adding_it_brings_the_error_to_the_noise(hidden, run, name):
+    d = run(hidden[name])
+    assert d.verdict == KEY[name], d.report()
+    assert d.base.model == "neo-hooke"
+    if KEY[name] == "none":
+        assert d.base.rms_mN < 1.3 * SIGMA
+        assert all(d.current.bic - f.bic < STRONG for f in d.ranking)
+        return
+    assert not d.base.white and d.base.rms_mN > 1.3 * SIGMA, "the base model should visibly fail"
+    top = d.ranking[0]
+    assert top.effects == (KEY[name],)
+    assert top.rms_mN < 1.3 * SIGMA and top.rms_mN < 1.3 * d.noise_mN
+    # the ladder continues: adding the effect makes it the current model
+    again = run(hidden[name], add=(KEY[name],))
+    assert [f.model for f in again.ladder] == ["neo-hooke", f"neo-hooke+{KEY[name]}"]
+    assert again.current.rms_mN == pytest.approx(top.rms_mN, rel=1e-6)
+    assert again.verdict == "none", again.report()
+
+
+def test_recovered_parameters_are_those_of_the_answer_key(hidden, run):
+    p = run(hidden["v04_stiffening"]).ranking[0].parameters
+    # nu is barely identified by a loading curve, and C20 trades off against it (measured: 8.7 +- 1.0 kPa
+    # at nu = 0.49, against 12 kPa at 0.45)
+    assert p["C20_kPa"] == pytest.approx(12.0, rel=0.35) and p["E_kPa"] == pytest.approx(6.0, rel=0.2)
+    p = run(hidden["v05_offset"]).ranking[0].parameters
+    assert p["offset_mm"] == pytest.approx(0.020, abs=0.004)
+    p = run(hidden["v06_viscoelastic"]).ranking[0].parameters
+    assert p["g1"] == pytest.approx(0.4, abs=0.05) and p["tau1_s"] == pytest.approx(5.0, rel=0.2)
+    p = run(hidden["v03_layer_rigid_base"]).ranking[0].parameters
+    assert p["thickness_mm"] == pytest.approx(3.0, rel=0.2) and p["ratio"] > 10
+
+
+def test_effects_that_cannot_show_are_not_claimed(hidden, run):
+    d = run(hidden["v01_clean"])
+    # a single constant-speed ramp: no rate information
+    assert "viscoelastic" in d.not_detectable and "ramp" in d.not_detectable["viscoelastic"]
+    # no tensile force, no retract segment
+    assert "adhesion" in d.not_detectable
+    # nu ~ 0.45-0.49: full stick barely changes the curve once E is refitted
+    assert "friction" in d.not_detectable, d.report()
+    # without a time column, rate effects cannot be told at all
+    m = hidden["v01_clean"]
+    untimed = measurement_from_arrays(m.depth_mm, m.force_mN, source="untimed")
+    assert "time" in run(untimed).not_detectable["viscoelastic"]
+
+
+def test_json_schema(hidden, run):
+    out = run(hidden["v05_offset"]).to_dict()
+    json.dumps(out, allow_nan=False)
+    for key in ("noise_mN", "base", "ranking", "verdict", "confounded_with", "suggested_measurement", "ladder",
+                "contact_point_mm"):
+        assert key in out
+    assert {"model", "parameters", "rms_mN", "white"} <= set(out["base"])
+    assert set(out["base"]["parameters"]) == {"E_kPa", "nu"}
+    for row in out["ranking"]:
+        assert {"effect", "delta_bic", "rms_mN", "parameters", "white"} <= set(row)
+        assert row["effect"] in CANDIDATES
+    assert out["ranking"][0]["effect"] == "offset" and out["ranking"][0]["delta_bic"] > STRONG
+    assert all({"model", "rms_mN", "bic"} <= set(r) for r in out["ladder"])
+
+
+# ------------------------------------------------------------------ our own hidden effects
+def _synthetic(model_effects, theta, *, sigma, seed, protocol=None, depth=0.6, points=100):
+    from skin_indent.effects import Model
+    from skin_indent.protocol import Protocol
+
+    protocol = protocol or Protocol.ramp(depth, points, 0.02)
+    curve = Model(tuple(model_effects)).simulate(theta, protocol=protocol, mesh="coarse")
+    rng = np.random.default_rng(seed)
+    force = curve.force_mN + rng.normal(0.0, sigma, curve.force_mN.size)
+    return measurement_from_arrays(curve.depth_mm, force, curve.time_s, source="+".join(model_effects) or "clean")
+
+
+@pytest.fixture(scope="session")
+def own_cases():
+    import math as _m
+
+    from skin_indent.protocol import Protocol
+
+    hold = Protocol.ramp(0.6, 60, 0.05, hold_s=20.0, hold_points=40)
+    return {
+        "clean, low noise": (_synthetic((), {"E_kPa": 15.0, "nu": 0.49}, sigma=0.02, seed=1), "none"),
+        "thin layer on a rigid base": (_synthetic(("layer",), {"E_kPa": 12.0, "nu": 0.47, "thickness_mm": 1.6,
+                                                               "ratio": _m.inf}, sigma=0.08, seed=2), "layer"),
+        "strong stiffening": (_synthetic(("stiffening",), {"E_kPa": 4.0, "nu": 0.48, "C20_kPa": 20.0},
+                                         sigma=0.03, seed=3), "stiffening"),
+        "relaxation during a hold": (_synthetic(("viscoelastic",), {"E_kPa": 9.0, "nu": 0.46, "g1": 0.3,
+                                                                    "tau1_s": 4.0}, sigma=0.05, seed=4,
+                                                protocol=hold), "viscoelastic"),
+    }
+
+
+@pytest.mark.parametrize("case", ["clean, low noise", "thin layer on a rigid base", "strong stiffening",
+                                  "relaxation during a hold"])
+def test_own_hidden_effects(own_cases, run, case):
+    m, expected = own_cases[case]
+    d = run(m)
+    assert d.verdict == expected or (d.verdict == "ambiguous" and expected in d.confounded_with), d.report()
+    if expected != "none":
+        top = next(f for f in d.ranking if f.effects[-1] == expected)
+        assert top.rms_mN < 1.3 * d.noise_mN, d.report()
+
+
+def test_two_effects_at_once_climb_the_ladder(run):
+    """Stiffening and a shifted contact point: each rung lowers the error, the last reaches the noise."""
+    m = _synthetic(("stiffening",), {"E_kPa": 6.0, "nu": 0.47, "C20_kPa": 15.0}, sigma=0.04, seed=5)
+    shifted = measurement_from_arrays(np.r_[0.0, m.depth_mm + 0.03], np.r_[0.0, m.force_mN],
+                                      np.r_[0.0, m.time_s + 1.5], source="stiffening+offset")
+    few = ("stiffening", "offset", "viscoelastic")  # this curve is 0.63 mm deep: no layer surface for it here
+    first = run(shifted, candidates=few)
+    assert first.verdict in ("stiffening", "offset", "ambiguous")
+    both = run(shifted, add=("stiffening", "offset"), candidates=few)
+    rms = [f.rms_mN for f in both.ladder]
+    assert rms[0] > rms[1] > rms[2] and rms[2] < 1.3 * both.noise_mN, both.report()
+    assert both.current.parameters["offset_mm"] == pytest.approx(0.03, abs=0.006)
+
+
+# ------------------------------------------------------------------ report and CLI
+def test_report_has_every_figure_embedded(hidden, run, tmp_path):
+    page = write_report(run(hidden["v06_viscoelastic"]), tmp_path)
+    text = page.read_text()
+    assert text.count("data:image/png;base64,") == 3 and "Verdict: viscoelastic" in text
+    for name in ("fit.png", "residuals.png", "ladder.png"):
+        assert (tmp_path / name).stat().st_size > 1000
+
+
+def _chromium():
+    return shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+
+
+def test_report_opens_in_a_real_browser(hidden, run, tmp_path):
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("headless Chromium not found: install Debian's chromium package to run this test")
+    page = write_report(run(hidden["v05_offset"]), tmp_path)
+    # the DOM after load: each image's naturalWidth > 0 means it decoded
+    script = tmp_path / "check.html"
+    script.write_text(page.read_text().replace("</body>", "<script>window.onload=()=>{document.title="
+                                               "[...document.images].map(i=>i.naturalWidth>0).join(',')}</script>"
+                                               "</body>"))
+    out = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--dump-dom",
+                          "--virtual-time-budget=5000", script.as_uri()], capture_output=True, text=True, timeout=120)
+    title = out.stdout.split("<title>")[1].split("</title>")[0]
+    assert title == "true,true,true", out.stdout[:500]
+
+
+def test_cli_diagnose_json_and_errors(cache, tmp_path):
+    env = {**__import__("os").environ, "SKIN_INDENT_CACHE": str(cache)}
+    cmd = [sys.executable, "-m", "skin_indent", "diagnose", str(HIDDEN / "v05_offset.csv"), "--json",
+           "--candidates", "offset,stiffening", "--mesh", "coarse", "--report", str(tmp_path / "r")]
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+    assert out.returncode == 0, out.stderr
+    payload = json.loads(out.stdout)
+    assert payload["verdict"] == "offset" and (tmp_path / "r" / "index.html").exists()
+    bad = subprocess.run([sys.executable, "-m", "skin_indent", "diagnose", str(HIDDEN / "v05_offset.csv"),
+                          "--add", "gravity"], capture_output=True, text=True, env=env, timeout=120)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "gravity" in bad.stderr
+    missing = subprocess.run([sys.executable, "-m", "skin_indent", "diagnose", str(tmp_path / "nope.csv")],
+                             capture_output=True, text=True, env=env, timeout=120)
+    assert missing.returncode == 2 and "Traceback" not in missing.stderr
