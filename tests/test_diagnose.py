@@ -212,6 +212,9 @@ def test_cli_diagnose_json_and_errors(cache, tmp_path):
     bad = subprocess.run([sys.executable, "-m", "skin_indent", "diagnose", str(HIDDEN / "v05_offset.csv"),
                           "--add", "gravity"], capture_output=True, text=True, env=env, timeout=120)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "gravity" in bad.stderr
+    cut = subprocess.run([sys.executable, "-m", "skin_indent", "diagnose", str(HIDDEN / "v06_viscoelastic.csv"),
+                          "--segments", "retract"], capture_output=True, text=True, env=env, timeout=120)
+    assert cut.returncode == 2 and "only trailing segments" in cut.stderr and "Traceback" not in cut.stderr
     missing = subprocess.run([sys.executable, "-m", "skin_indent", "diagnose", str(tmp_path / "nope.csv")],
                              capture_output=True, text=True, env=env, timeout=120)
     assert missing.returncode == 2 and "Traceback" not in missing.stderr

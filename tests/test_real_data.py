@@ -161,3 +161,39 @@ def test_fit_cli_instrument_file_error_is_one_line(tmp_path):
     assert p.returncode == 2 and "Traceback" not in p.stderr
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and "pip install afmformats" in lines[0]
+
+
+# ------------------------------------------------------------------ diagnose on real curves
+@pytest.fixture(scope="session")
+def diagnose_cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("real-data-diagnose")
+
+
+def test_diagnose_names_viscoelasticity_on_a_creep_curve(diagnose_cache):
+    """Brain tissue under constant force: the depth creeps during the hold; an elastic model
+    cannot follow it. The probe radius was not recorded: 30 um is assumed (13 um deep, so
+    h/R ~ 0.45; the verdict does not depend on it, the modulus does). The retract, dominated
+    by tethers (stepwise unbinding) that no candidate models, is left out (``segments``)."""
+    from skin_indent.diagnose import diagnose
+
+    d = diagnose(load_csv(REAL / "jpk_creep_brain_Runknown.csv"), radius_mm=0.03, segments=("approach", "hold"),
+                 candidates=("viscoelastic", "adhesion", "offset"), cache_dir=diagnose_cache, workers=2)
+    assert d.data.has("hold") and not d.data.has("retract")
+    assert d.data.contact_guess_mm == pytest.approx(0.0168, abs=0.002)
+    assert d.verdict == "viscoelastic", d.report()
+    assert d.ranking[0].rms_mN < 0.2 * d.base.rms_mN  # measured: 9x lower
+
+
+def test_diagnose_names_adhesion_on_the_retract_segment(diagnose_cache):
+    """The force-save curve: hysteresis first (viscoelastic), then, on top of it, the tensile
+    dip on retract (adhesion)."""
+    from skin_indent.diagnose import diagnose
+
+    m = load_csv(REAL / "jpk_force-save-example_R18.64um.csv")
+    first = diagnose(m, radius_mm=0.01864, candidates=("viscoelastic", "adhesion"), cache_dir=diagnose_cache,
+                     workers=2)
+    assert first.verdict == "viscoelastic", first.report()
+    second = diagnose(m, radius_mm=0.01864, candidates=("adhesion",), add=("viscoelastic",),
+                      cache_dir=diagnose_cache, workers=2)
+    assert second.verdict == "adhesion", second.report()
+    assert second.ranking[0].parameters["w_mJ_per_m2"] > 0

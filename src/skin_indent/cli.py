@@ -280,6 +280,8 @@ def _add_diagnose(sub):
     p.add_argument("--add", action="append", default=[], metavar="EFFECT",
                    help="add an effect to the model (repeatable, in order): the error ladder")
     p.add_argument("--noise", type=float, default=None, help="noise standard deviation, mN (default: from the data)")
+    p.add_argument("--segments", default="approach,hold,retract",
+                   help="kinds of motion to diagnose (default all; only trailing ones can be left out)")
     p.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
     p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="coarse",
                    help="mesh of the finite-element runs behind the surfaces (default coarse: within 0.03%% of "
@@ -306,7 +308,9 @@ def _run_diagnose(args) -> int:
     add = [*model[1:], *args.add]
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()]
     measurement = load_curve(args.data, radius_mm=args.radius)
+    segments = tuple(x.strip() for x in args.segments.split(",") if x.strip())
     diag = diagnose(measurement, radius_mm=args.radius, candidates=candidates, add=add, noise_mN=args.noise,
+                    segments=segments,
                     workers=args.workers, scheduler=args.scheduler, progress=not args.json, mesh=args.mesh)
     if args.report is not None:
         page = write_report(diag, args.report)

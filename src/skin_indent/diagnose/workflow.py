@@ -102,8 +102,19 @@ class DiagnosisData:
         return bool(np.any(self.kind == kind))
 
 
-def prepare(measurement: Measurement, max_points: int = MAX_POINTS) -> DiagnosisData:
-    """Segments, baseline, contact guess and binning of a measurement (see :class:`DiagnosisData`)."""
+SEGMENTS = ("approach", "hold", "retract")
+
+
+def prepare(measurement: Measurement, max_points: int = MAX_POINTS, segments=SEGMENTS) -> DiagnosisData:
+    """Segments, baseline, contact guess and binning of a measurement (see :class:`DiagnosisData`).
+
+    ``segments`` keeps only those kinds of motion (e.g. leave out a retract dominated by
+    tethers); the history before the last kept point is kept whole, since a viscoelastic
+    force depends on it, so only trailing segments can be left out.
+    """
+    bad = set(segments) - set(SEGMENTS)
+    if bad or not segments:
+        raise ValueError(f"segments must be among {', '.join(SEGMENTS)}, got {', '.join(segments) or 'none'}")
     from ..measurement import find_contact_point, find_segments
 
     m = measurement
@@ -126,14 +137,24 @@ def prepare(measurement: Measurement, max_points: int = MAX_POINTS) -> Diagnosis
         line = cp.baseline if cp.baseline.tilt_significant else cp.baseline.flat()
         baseline = float(line.force_at(cp.depth_mm))
         contact = float(cp.depth_mm)
-    depth, force = np.array(m.depth_mm), np.array(m.force_mN) - baseline
-    time = None if m.time_s is None else np.array(m.time_s)
-    k = max(1, math.ceil(m.n_points / max_points))
+    keep = np.isin(kinds.astype(str), list(segments))
+    if not np.any(keep):
+        raise ValueError(f"{m.source}: no {' or '.join(segments)} segment in this curve")
+    last = int(np.flatnonzero(keep)[-1]) + 1
+    dropped = sorted(set(kinds[:last].astype(str)) - set(segments))
+    if dropped:
+        raise ValueError(f"leaving out {', '.join(dropped)} would cut the history before a kept segment: "
+                         "only trailing segments can be left out")
+    kinds = kinds[:last]
+    depth, force = np.array(m.depth_mm[:last]), np.array(m.force_mN[:last]) - baseline
+    time = None if m.time_s is None else np.array(m.time_s[:last])
+    n = depth.size
+    k = max(1, math.ceil(n / max_points))
     if k > 1:  # bin within segments so that a bin never straddles a turn
         rows = []
         start = 0
-        for i in range(1, m.n_points + 1):
-            if i == m.n_points or kinds[i] != kinds[start] or i - start == k:
+        for i in range(1, n + 1):
+            if i == n or kinds[i] != kinds[start] or i - start == k:
                 rows.append((start, i))
                 start = i
         depth = np.array([depth[a:b].mean() for a, b in rows])
@@ -574,7 +595,7 @@ class Diagnosis:
 
 # ----------------------------------------------------------------------------- the workflow
 def diagnose(measurement: Measurement, *, radius_mm: float = 6.22, candidates=CANDIDATES, add=(),
-             noise_mN: float | None = None, cache_dir=None, workers=None, client=None, scheduler=None,
+             noise_mN: float | None = None, segments=SEGMENTS, cache_dir=None, workers=None, client=None, scheduler=None,
              progress: bool = False, mesh: str = "coarse") -> Diagnosis:
     """Compare the model with a measured curve and name the physical effect it misses.
 
@@ -591,6 +612,9 @@ def diagnose(measurement: Measurement, *, radius_mm: float = 6.22, candidates=CA
         and the candidates are tested on top of the last rung.
     noise_mN : float, optional
         Noise standard deviation, mN; default estimated from the data.
+    segments : sequence of str
+        Kinds of motion to diagnose (default all: ``approach``, ``hold``, ``retract``);
+        only trailing ones can be left out.
     cache_dir, workers, client, scheduler, progress
         Where and how the response surfaces are built or found (see
         :meth:`skin_indent.response_surface.ResponseSurface.build`).
@@ -618,7 +642,7 @@ def diagnose(measurement: Measurement, *, radius_mm: float = 6.22, candidates=CA
             raise ValueError(f"--add {name}: only {', '.join(FITTABLE)} can be added to a fitted model so far")
     if not (math.isfinite(radius_mm) and radius_mm > 0):
         raise ValueError(f"radius must be a positive number of mm, got {radius_mm}")
-    data = prepare(measurement)
+    data = prepare(measurement, segments=tuple(segments))
     if noise_mN is None:
         sigma, source = estimate_data_noise(data), "estimated from the data (local cubic prediction)"
         if data.binned > 1:
