@@ -631,15 +631,13 @@ def diagnose(measurement: Measurement, *, radius_mm: float = 6.22, candidates=CA
     from ..effects import effect
 
     for name in (*candidates, *add):
-        effect(name) if name in ("layer", "stiffening", "viscoelastic", "offset") else None
-        if name not in CANDIDATES:
-            raise ValueError(f"unknown effect {name!r}: choose from {', '.join(CANDIDATES)}")
+        effect(name)  # one line naming the vocabulary for an unknown name
     add = tuple(add)
     if len(set(add)) != len(add):
         raise ValueError(f"each effect may be added once, got {add}")
     for name in add:
         if name not in FITTABLE:
-            raise ValueError(f"--add {name}: only {', '.join(FITTABLE)} can be added to a fitted model so far")
+            raise ValueError(f"add {name}: only {', '.join(FITTABLE)} can be added to a fitted model so far")
     if not (math.isfinite(radius_mm) and radius_mm > 0):
         raise ValueError(f"radius must be a positive number of mm, got {radius_mm}")
     data = prepare(measurement, segments=tuple(segments))
