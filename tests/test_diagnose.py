@@ -18,6 +18,7 @@ from _data import DATA
 
 from skin_indent.diagnose import CANDIDATES, diagnose, write_report
 from skin_indent.diagnose.workflow import STRONG
+from skin_indent.inverse import fit_least_squares
 from skin_indent.measurement import load_csv, measurement_from_arrays
 
 HIDDEN = DATA / "hidden-effects"
@@ -74,11 +75,34 @@ def test_hidden_effect_is_named_and_adding_it_brings_the_error_to_the_noise(hidd
     assert again.verdict == "none", again.report()
 
 
-def test_recovered_parameters_are_those_of_the_answer_key(hidden, run):
-    p = run(hidden["v04_stiffening"]).ranking[0].parameters
-    # nu is barely identified by a loading curve, and C20 trades off against it (measured: 8.7 +- 1.0 kPa
-    # at nu = 0.49, against 12 kPa at 0.45)
-    assert p["C20_kPa"] == pytest.approx(12.0, rel=0.35) and p["E_kPa"] == pytest.approx(6.0, rel=0.2)
+def _stiffening_surface(cache):
+    """The stiffening surface that diagnosis builds for a 0.6 mm curve (same runs, from the cache)."""
+    from skin_indent.diagnose.models import EFFECT_NU
+    from skin_indent.response_surface import SurfaceGrid
+    from skin_indent.response_surface.effect_surface import EffectSurface, default_axes
+
+    grid = SurfaceGrid(np.linspace(0.006, 0.6, 100), np.geomspace(0.1, 100.0, 8), np.array(EFFECT_NU))
+    return EffectSurface.build(("stiffening",), default_axes("stiffening", 0.6), grid, mesh="coarse",
+                               cache_dir=cache, workers=2, progress=False)
+
+
+def test_recovered_parameters_are_those_of_the_answer_key(hidden, run, cache):
+    top = run(hidden["v04_stiffening"]).ranking[0]
+    # nu is barely identified by a loading curve and C20 trades off against it (free fit: C20 = 8.7 +- 1.0
+    # kPa at nu = 0.49): the free estimate is consistent within 4 sigma, and with nu held at its true
+    # value the same surface recovers C20 closely
+    assert abs(top.parameters["C20_kPa"] - 12.0) < 4 * top.std["C20_kPa"]
+    assert top.parameters["E_kPa"] == pytest.approx(6.0, rel=0.2)
+    surface = _stiffening_surface(cache)
+    for name in ("v04_stiffening_exact", "v04_stiffening"):
+        m = load_csv(HIDDEN / f"{name}.csv")
+        touch = m.depth_mm > 0
+        fit = fit_least_squares(surface, m.depth_mm[touch], m.force_mN[touch], [6.0, 0.45, 1.0], fixed={"nu": 0.45})
+        c, E = fit.parameters["C20_over_E"], fit.parameters["E_kPa"]
+        if name.endswith("exact"):  # the model: measured 12.10 kPa and 6.000 kPa
+            assert c * E == pytest.approx(12.0, rel=0.02) and E == pytest.approx(6.0, rel=0.002)
+        else:  # the noise: measured C20/E = 1.73 +- 0.13 (2.1 sigma)
+            assert abs(c - 2.0) < 3 * fit.std["C20_over_E"] and abs(E - 6.0) < 3 * fit.std["E_kPa"]
     p = run(hidden["v05_offset"]).ranking[0].parameters
     assert p["offset_mm"] == pytest.approx(0.020, abs=0.004)
     p = run(hidden["v06_viscoelastic"]).ranking[0].parameters
