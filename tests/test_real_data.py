@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from _data import DATA
 
-from skin_indent.identify import fit_curve, parse_fix, unit_surface_grid
+from skin_indent.fit_recorded import fit_curve
+from skin_indent.identify import parse_fix, unit_surface_grid
 from skin_indent.measurement import (MeasurementError, find_contact_point, find_segments, load_csv, load_curve)
 from skin_indent.response_surface import ResponseSurface, default_settings
 

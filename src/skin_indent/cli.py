@@ -227,7 +227,8 @@ def _parse_start(text):
 def _run_fit(args) -> int:
     import json
 
-    from .identify import SIMILARITY_RATIOS, fit_prepared, parse_fix, parse_window, prepare_fit, surface_for
+    from .fit_recorded import fit_prepared, prepare_fit
+    from .identify import SIMILARITY_RATIOS, parse_fix, parse_window, surface_for
     from .measurement import load_curve
     from .mechanics.contact import SphericalIndenter
     from .response_surface import ResponseSurface

@@ -3,6 +3,8 @@ physical effect is missing, add it and watch the error fall.
 
 - :mod:`.residuals`: is a residual noise or structure, and where (statistics);
 - :mod:`.models`: force models of the base law plus effects, bound to a measured history;
+- :mod:`.data`: the curve as diagnosed (segments, baseline, contact guess, binning, noise);
+- :mod:`.evidence`: which effects can show in the data, and which measurement separates two;
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
 - :mod:`.report`: figures and a self-contained HTML page.
 """

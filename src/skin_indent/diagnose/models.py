@@ -70,8 +70,6 @@ class BoundModel:
         if viscoelastic:
             if self.time_s is None:
                 raise ValueError("a viscoelastic model needs the measurement's time_s")
-            from ..response_surface.hereditary import relaxation_weights  # noqa: F401 (checked import)
-
             duration = float(self.time_s[-1] - self.time_s[0])
             dt = np.diff(self.time_s)
             names += ["g1", "tau1_s"]

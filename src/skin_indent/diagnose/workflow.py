@@ -36,15 +36,15 @@ against what E and nu absorb; adhesion needs tensile forces (a retract segment).
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..identify import _fit_in_force_units
-from ..inverse import estimate_noise
+from ..fit_recorded import fit_in_force_units
 from ..measurement import Measurement
+from .data import SEGMENTS, DiagnosisData, estimate_data_noise, nice_depth, prepare
+from .evidence import adhesion_visible, friction_visible, suggest_measurement, viscoelastic_visible
 from .models import EFFECT_NU, FITTABLE, BoundModel, reported_parameters
 from .residuals import analyse_residuals, describe_structure, effective_sample_size
 
@@ -60,117 +60,6 @@ CLOSE = 2.0
 #: BIC difference under which the runner-up is not excluded: named in ``confounded_with``,
 #: with the measurement that would separate it from the winner
 RIVAL = 10.0
-#: at most this many points are fitted (longer curves are averaged in bins, in time order)
-MAX_POINTS = 400
-
-
-# ----------------------------------------------------------------------------- data
-@dataclass(frozen=True)
-class DiagnosisData:
-    """The curve as diagnosed: in contact coordinates, binned to at most MAX_POINTS.
-
-    Attributes
-    ----------
-    depth_mm, force_mN : ndarray
-        Depth (mm) and force (mN) in time order.
-    time_s : ndarray or None
-    kind : ndarray of str
-        ``"approach"``, ``"hold"`` or ``"retract"`` per point.
-    source : str
-    binned : int
-        Points averaged per bin (1: none).
-    baseline_mN : float
-        Force offset removed (0 when the curve has no pre-contact part).
-    contact_guess_mm : float
-        First guess of the contact point in recorded depth (0: curve starts at contact).
-    """
-
-    depth_mm: np.ndarray
-    force_mN: np.ndarray
-    time_s: np.ndarray | None
-    kind: np.ndarray
-    source: str
-    binned: int = 1
-    baseline_mN: float = 0.0
-    contact_guess_mm: float = 0.0
-
-    @property
-    def n(self) -> int:
-        return self.depth_mm.size
-
-    def has(self, kind: str) -> bool:
-        return bool(np.any(self.kind == kind))
-
-
-SEGMENTS = ("approach", "hold", "retract")
-
-
-def prepare(measurement: Measurement, max_points: int = MAX_POINTS, segments=SEGMENTS) -> DiagnosisData:
-    """Segments, baseline, contact guess and binning of a measurement (see :class:`DiagnosisData`).
-
-    ``segments`` keeps only those kinds of motion (e.g. leave out a retract dominated by
-    tethers); the history before the last kept point is kept whole, since a viscoelastic
-    force depends on it, so only trailing segments can be left out.
-    """
-    bad = set(segments) - set(SEGMENTS)
-    if bad or not segments:
-        raise ValueError(f"segments must be among {', '.join(SEGMENTS)}, got {', '.join(segments) or 'none'}")
-    from ..measurement import find_contact_point, find_segments
-
-    m = measurement
-    kinds = np.empty(m.n_points, dtype=object)
-    if m.has_time:
-        for seg in find_segments(m):
-            kinds[seg.start:seg.stop] = seg.kind
-    else:
-        kinds[:] = "approach"
-    baseline, contact = 0.0, 0.0
-    try:
-        cp = find_contact_point(m)
-    except Exception:  # noqa: BLE001 - no pre-contact part to speak of
-        cp = None
-    # a pre-contact part worth the name: contact beyond 30% of the recorded travel (AFM curves
-    # approach from far away: 50-90%); a skin curve whose first forces hide in the noise, or whose
-    # contact point is slightly off, keeps its origin, and the ``offset`` candidate tests the shift
-    if (cp is not None and cp.has_baseline and cp.baseline is not None
-            and cp.depth_mm > 0.3 * float(np.max(m.depth_mm))):
-        line = cp.baseline if cp.baseline.tilt_significant else cp.baseline.flat()
-        baseline = float(line.force_at(cp.depth_mm))
-        contact = float(cp.depth_mm)
-    keep = np.isin(kinds.astype(str), list(segments))
-    if not np.any(keep):
-        raise ValueError(f"{m.source}: no {' or '.join(segments)} segment in this curve")
-    last = int(np.flatnonzero(keep)[-1]) + 1
-    dropped = sorted(set(kinds[:last].astype(str)) - set(segments))
-    if dropped:
-        raise ValueError(f"leaving out {', '.join(dropped)} would cut the history before a kept segment: "
-                         "only trailing segments can be left out")
-    kinds = kinds[:last]
-    depth, force = np.array(m.depth_mm[:last]), np.array(m.force_mN[:last]) - baseline
-    time = None if m.time_s is None else np.array(m.time_s[:last])
-    n = depth.size
-    k = max(1, math.ceil(n / max_points))
-    if k > 1:  # bin within segments so that a bin never straddles a turn
-        rows = []
-        start = 0
-        for i in range(1, n + 1):
-            if i == n or kinds[i] != kinds[start] or i - start == k:
-                rows.append((start, i))
-                start = i
-        depth = np.array([depth[a:b].mean() for a, b in rows])
-        force = np.array([force[a:b].mean() for a, b in rows])
-        time = None if time is None else np.array([time[a:b].mean() for a, b in rows])
-        kinds = np.array([kinds[a] for a, _ in rows], dtype=object)
-    return DiagnosisData(depth, force, time, kinds.astype(str), m.source, k, baseline, contact)
-
-
-def estimate_data_noise(data: DiagnosisData) -> float:
-    """Noise (mN) from the data: local cubic prediction along time (or depth) order."""
-    x = data.time_s if data.time_s is not None and np.all(np.diff(data.time_s) > 0) else np.arange(data.n, dtype=float)
-    sigma = estimate_noise(x, data.force_mN)
-    if not sigma > 0:
-        raise ValueError("cannot estimate the noise from a noise-free curve: give the noise level (--noise)")
-    return float(sigma)
 
 
 # ----------------------------------------------------------------------------- fits
@@ -237,22 +126,6 @@ def _fmt_params(f: "Fit") -> str:
         else:
             parts.append(f"{k} = {v:.4g}" + ("" if not math.isfinite(s) else f" +- {s:.2g}"))
     return ", ".join(parts)
-
-
-#: the depth ranges surfaces are built for, per decade (mm): curves share surfaces and runs
-NICE_DEPTHS = (1.0, 1.25, 1.6, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
-
-
-def nice_depth(depth_mm: float) -> float:
-    """The smallest of :data:`NICE_DEPTHS` x 10^k that reaches ``depth_mm`` (mm)."""
-    if not (math.isfinite(depth_mm) and depth_mm > 0):
-        raise ValueError(f"the curve reaches no positive depth (got {depth_mm} mm)")
-    k = math.floor(math.log10(depth_mm))
-    for m in (*NICE_DEPTHS, 10.0):
-        top = float(f"{m * 10.0**k:.6g}")
-        if top >= depth_mm * (1 - 1e-12):
-            return top
-    raise AssertionError("unreachable")  # pragma: no cover
 
 
 class _Context:
@@ -376,7 +249,7 @@ class _Context:
         for x0 in self.starts(model, key):
             try:
                 # in units of a tenth of the peak force, so that AFM curves (1e-5 mN) fit like skin (10 mN)
-                res = _fit_in_force_units(model, d.depth_mm, d.force_mN, x0, "lsq", noise_mN=self.noise_mN)
+                res = fit_in_force_units(model, d.depth_mm, d.force_mN, x0, "lsq", noise_mN=self.noise_mN)
             except ValueError:
                 continue
             if best is None or res.rms_mN < best.rms_mN:
@@ -419,78 +292,6 @@ def structure_sentence(data: DiagnosisData, residual, sigma) -> str:
         if text:
             parts.append(f"on {label}: model " + ", ".join(text))
     return "; ".join(parts) if parts else "no range departs from the model beyond the noise"
-
-
-# ----------------------------------------------------------------------------- detectability
-def _viscoelastic_visible(data: DiagnosisData) -> str | None:
-    """None if rate effects can show, else why not."""
-    if data.time_s is None:
-        return "the curve has no time column: rate effects cannot be told from elastic ones"
-    if data.has("hold") or data.has("retract"):
-        return None
-    load = data.kind == "approach"
-    v = np.diff(data.depth_mm[load]) / np.diff(data.time_s[load])
-    v = v[np.isfinite(v) & (v > 0)]
-    if v.size > 5 and np.percentile(v, 90) > 1.5 * np.percentile(v, 10):
-        return None
-    return ("a single constant-speed loading ramp: relaxation during it looks like an elastic nonlinearity; "
-            "a hold or an unloading segment would show it")
-
-
-def _adhesion_visible(data: DiagnosisData, noise: float) -> str | None:
-    if np.count_nonzero(data.force_mN < -3.0 * noise) >= 3:  # not a stray noise sample
-        return None
-    if data.has("retract"):
-        return "no tensile (negative) force beyond the noise on unloading: no pull-off to explain"
-    return "no retract segment and no tensile force: adhesion shows as a pull-off on unloading"
-
-
-@functools.lru_cache(maxsize=32)
-def _full_stick_ratio(nu: float, depth_mm: float, radius_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """Depths (mm) and F(full stick) / F(frictionless) of a neo-Hookean half-space (coarse FE, 24 steps)."""
-    from ..mechanics.contact import ContactLaw, SphericalIndenter
-    from ..mechanics.materials import NeoHooke
-    from ..protocol import Protocol
-    from ..simulate import simulate
-
-    ramp = Protocol.ramp(depth_mm, 24)
-    runs = [simulate(NeoHooke(1.0, nu), SphericalIndenter(radius_mm), depth_mm, protocol=ramp, mesh="coarse",
-                     contact=ContactLaw(friction=mu)) for mu in (0.0, 1.0)]
-    return runs[0].depth_mm[1:], runs[1].force_mN[1:] / runs[0].force_mN[1:]
-
-
-def _friction_visible(ctx: _Context, base: Fit) -> tuple[str | None, dict]:
-    """Weigh full-stick friction at the fitted nu with two FE runs against what E and nu absorb.
-
-    ``base`` is the best-fitting model of the diagnosis: its nu, its prediction and its
-    (E, nu) Jacobian columns.
-    """
-    nu = float(base.parameters.get("nu", 0.45))
-    d = ctx.data
-    off = base.parameters.get("offset_mm", 0.0)
-    h = d.depth_mm - off
-    touch = h > 0
-    hmax = float(h[touch].max())
-    try:
-        depths, ratio_curve = _full_stick_ratio(round(nu, 3), float(f"{hmax:.3g}"), ctx.radius_mm)
-    except Exception as exc:  # noqa: BLE001 - reported, not fatal
-        return f"the full-stick check did not run ({type(exc).__name__}: {exc})", {}
-    ratio = np.interp(h[touch], depths, ratio_curve)
-    delta = np.zeros_like(h)
-    delta[touch] = base.prediction_mN[touch] * (ratio - 1.0)
-    # what refitting E and nu cannot absorb: remove the part along the base Jacobian
-    model, x = base.evaluate()
-    J = model.jacobian(d.depth_mm, x)[:, :2]
-    s = ctx.sigma(base.prediction_mN)
-    A = J / s[:, None]
-    b = delta / s
-    coef, *_ = np.linalg.lstsq(A, b, rcond=None)
-    gain = float(np.sum((b - A @ coef) ** 2))
-    info = {"full_stick_change_mN": float(np.max(np.abs(delta))), "chi2_gain_after_refit": gain, "nu": nu}
-    if gain < STRONG:
-        return (f"full stick changes the force by at most {info['full_stick_change_mN']:.2g} mN at nu = {nu:.2f}, "
-                f"and refitting E absorbs all but a chi-square of {gain:.2g} (< {STRONG:g})"), info
-    return None, info
 
 
 # ----------------------------------------------------------------------------- result
@@ -664,9 +465,9 @@ def diagnose(measurement: Measurement, *, radius_mm: float = 6.22, candidates=CA
             continue
         why = None
         if name == "viscoelastic":
-            why = _viscoelastic_visible(data)
+            why = viscoelastic_visible(data)
         elif name == "adhesion":
-            why = _adhesion_visible(data, sigma)
+            why = adhesion_visible(data, sigma)
         elif name == "friction":
             continue  # weighed below, at the nu of the best-fitting model
         if why is not None:
@@ -679,7 +480,7 @@ def diagnose(measurement: Measurement, *, radius_mm: float = 6.22, candidates=CA
     fits = [current, *tried]
     best = min(fits, key=lambda f: f.chi2)
     if "friction" in candidates:
-        why, info = _friction_visible(ctx, best)
+        why, info = friction_visible(ctx, best)
         if why is None:
             why = (f"full stick could change this curve beyond the noise (chi-square {info['chi2_gain_after_refit']:.3g} "
                    f"after refitting E and nu, at nu = {info['nu']:.2f}), but no friction model is fitted yet")
@@ -701,51 +502,3 @@ def diagnose(measurement: Measurement, *, radius_mm: float = 6.22, candidates=CA
             suggestion = suggest_measurement(ctx, top, rivals[0])
     return Diagnosis(data, sigma, source, radius_mm, ladder, ranking, not_detectable, verdict, confounded,
                      suggestion, n_eff, notes)
-
-
-def suggest_measurement(ctx: _Context, a: Fit, b: Fit) -> str:
-    """Which extra measurement separates two fitted candidates, with the predicted difference.
-
-    Candidates are compared on (i) an unloading back to zero at the loading speed,
-    (ii) a 30 s hold at the deepest point, both from the surrogate models; and on
-    (iii) a sphere of half the radius and (iv) an indentation 1.5 times deeper, both
-    by forward FE runs of the two fitted models.
-    """
-    from ..effects import Model
-    from ..protocol import Protocol
-
-    d = ctx.data
-    noise = ctx.noise_mN
-    out = {}
-    ea, eb = a.effects[-1], b.effects[-1]
-    fe_ok = all(e in ("layer", "stiffening", "offset") for e in (*a.effects, *b.effects))
-    if fe_ok:
-        def theta(f):
-            t = {k: v for k, v in f.parameters.items() if k != "offset_mm"}
-            return t
-
-        hmax = ctx.max_depth
-        for label, radius, depth in ((f"a sphere of half the radius (R = {ctx.radius_mm / 2:.3g} mm) to the same "
-                                      f"depth", ctx.radius_mm / 2, hmax),
-                                     (f"an indentation 1.5 times deeper ({1.5 * hmax:.3g} mm)", ctx.radius_mm,
-                                      1.5 * hmax)):
-            try:
-                fa = Model(tuple(e for e in a.effects if e != "offset"), radius).simulate(theta(a), depth,
-                                                                                          mesh="coarse")
-                fb = Model(tuple(e for e in b.effects if e != "offset"), radius).simulate(theta(b), depth,
-                                                                                          mesh="coarse")
-                out[label] = float(np.max(np.abs(fa.force_mN - fb.force_mN)))
-            except Exception:  # noqa: BLE001 - a measurement we cannot predict is not suggested
-                continue
-    if "viscoelastic" in (ea, eb) and d.time_s is not None:
-        # a hold at the deepest point: the elastic candidate stays flat, the viscoelastic one relaxes
-        va, xa = (a if ea == "viscoelastic" else b).evaluate()
-        g = (a if ea == "viscoelastic" else b).parameters["g1"]
-        peak = float(np.max((a if ea == "viscoelastic" else b).prediction_mN))
-        out["a 30 s hold at the deepest point"] = g * peak * (1 - math.exp(-30.0 / max(
-            (a if ea == "viscoelastic" else b).parameters["tau1_s"], 1e-9)))
-    if not out:
-        return "no extra measurement computed here separates them"
-    label, diff = max(out.items(), key=lambda kv: kv[1])
-    return (f"{label} would separate {ea} from {eb}: the fitted models differ there by up to {diff:.3g} mN, "
-            f"{diff / noise:.1f} times the noise")
