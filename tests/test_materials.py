@@ -4,6 +4,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _laws import finite_differences, random_H
 
 from skin_indent.mechanics.axisymmetric import F_COMPONENTS
 from skin_indent.mechanics.materials import LinearElastic, Material, NeoHooke
@@ -11,25 +12,11 @@ from skin_indent.mechanics.materials import LinearElastic, Material, NeoHooke
 LAWS = [NeoHooke(10.0, 0.45), NeoHooke(3.0, 0.2), LinearElastic(10.0, 0.3)]
 
 
-def random_H(n=7, scale=0.2, seed=0):
-    """Axisymmetric displacement gradients (zero r-theta and z-theta components)."""
-    H = scale * np.random.default_rng(seed).standard_normal((3, 3, n))
-    H[0, 2] = H[2, 0] = H[1, 2] = H[2, 1] = 0.0
-    return H
-
-
 @pytest.mark.parametrize("law", LAWS, ids=lambda m: f"{m.name}-{m.nu}")
 def test_stress_is_energy_derivative_and_tangent_is_stress_derivative(law):
     H = random_H()
     P, A = law.stress_and_tangent(H)
-    eps = 1e-6
-    P_fd, A_fd = np.zeros_like(P), np.zeros_like(A)
-    for k in range(3):
-        for L in range(3):
-            dH = np.zeros_like(H)
-            dH[k, L] = eps
-            P_fd[k, L] = (law.energy(H + dH) - law.energy(H - dH)) / (2 * eps)
-            A_fd[:, :, k, L] = (law.stress(H + dH) - law.stress(H - dH)) / (2 * eps)
+    P_fd, A_fd = finite_differences(law, H)
     assert np.abs(P - P_fd).max() <= 1e-7 * np.abs(P).max()
     assert np.abs(A - A_fd).max() <= 1e-7 * np.abs(A).max()
 

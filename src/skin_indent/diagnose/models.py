@@ -130,11 +130,10 @@ class BoundModel:
         """Central differences (relative steps; one-sided at the box faces); dF/dE exact."""
         theta = np.asarray(theta, dtype=float)
         lo, hi = self.bounds
-        f0 = self.force(depth_mm, theta)
         J = np.empty((self.depth_mm.size, theta.size))
         for i in range(theta.size):
             if i == 0 and not self.adhesion:  # F is exactly proportional to the modulus of the top material
-                J[:, 0] = f0 / theta[0]
+                J[:, 0] = self.force(depth_mm, theta) / theta[0]
                 continue
             span = hi[i] - lo[i]
             step = 1e-5 * max(abs(theta[i]), 1e-2 * span if math.isfinite(span) else 1e-3)
