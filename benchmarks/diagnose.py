@@ -40,7 +40,7 @@ DATA = ROOT / "tests" / "data" / "hidden-effects" / "v02_layer_soft_base.csv"
 CHILD = r"""
 import json, resource, sys, time
 t0 = time.perf_counter()
-from skin_indent.diagnose import diagnose
+from skin_indent.diagnosis import diagnose
 from skin_indent.measurement import load_csv
 d = diagnose(load_csv(sys.argv[1]), cache_dir=sys.argv[2], workers=2)
 wall = time.perf_counter() - t0

@@ -1,8 +1,10 @@
 #!/usr/bin/env python
 """Speed and accuracy of the forward model, and a side-by-side run of FElupe.
 
-    python benchmarks/forward.py            # full run (~2-4 min on 2 cores)
+    python benchmarks/forward.py            # full run (~4-6 min on 2 cores)
     python benchmarks/forward.py --quick    # coarse mesh only, no refinement, no FElupe
+    git archive <commit> src | tar -x -C /tmp/before    # an older version to compare with
+    python benchmarks/forward.py --baseline-src /tmp/before/src
 
 Problem: rigid sphere R = 6.22 mm into a neo-Hookean half-space, E = 8 kPa, nu = 0.45,
 100 output depths to 0.6 mm (``simulate(..., 0.6, 100)``, default settings).
@@ -18,6 +20,14 @@ F(0.6 mm) under uniform refinement of the coarse mesh, and, when FElupe is insta
 the FElupe model of ``benchmarks/felupe_reference.py`` on the same problem in the same
 run (time ratio FElupe / our medium mesh).
 
+The speed section (issue 15's problem: E = 10 kPa, nu = 0.4, medium mesh) reports for
+one curve, in a fresh process, Newton iterations per increment, line-search
+evaluations, LU factorisations, preconditioned solves and the time split from cProfile
+(assembly, contact, linear solves, predictor, set-up, Python overhead); with
+``--baseline-src`` the same for an older checkout, in turn (3 rounds, medians). Then
+whole processes (Python start, imports, one curve): ours, the baseline's and FElupe's
+(``felupe_reference.run_felupe``, its import included), in turn, and their ratios.
+
 Results go to stdout and to ``benchmarks/results/forward.json`` (kept out of git).
 """
 
@@ -26,6 +36,7 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import inspect
+import json
 import math
 import os
 import platform
@@ -55,6 +66,9 @@ RESULTS = HERE / "results"
 #: Targets of the project brief.
 TARGET_SECONDS = 2.0
 TARGET_SPEEDUP = 8.0
+#: The problem of the speed targets of issue 15 (the breakdown and the whole-process runs).
+SPEED_E_KPA, SPEED_NU = 10.0, 0.4
+TARGET_WHOLE_PROCESS_SPEEDUP = 15.0
 
 
 def _versions() -> dict:
@@ -109,10 +123,128 @@ def errors(depth, force, ref_depth, ref_force) -> dict:
 
 
 def newton_stats(report) -> dict:
-    return {"increments": report.increments, "newton_iterations": report.total_iterations,
-            "mean_iterations": report.mean_iterations, "step_cuts": report.step_cuts,
-            "line_search_evaluations": report.line_search_backtracks,
-            "max_penetration_ratio": report.max_penetration_ratio}
+    out = {"increments": report.increments, "newton_iterations": report.total_iterations,
+           "mean_iterations": report.mean_iterations, "step_cuts": report.step_cuts,
+           "line_search_evaluations": report.line_search_backtracks,
+           "max_penetration_ratio": report.max_penetration_ratio}
+    for key in ("tangents", "modified_steps", "factorisations", "preconditioned_solves"):  # newer reports only
+        if hasattr(report, key):
+            out[key] = getattr(report, key)
+    return out
+
+
+#: Where the time of one curve goes: cProfile cumulative time of these functions, as
+#: (module, function name); absent ones count 0, so older versions of the code are measured alike.
+TIME_BUCKETS = {
+    "assembly": (("axisymmetric", "forces"), ("axisymmetric", "tangent"), ("axisymmetric", "assemble")),
+    "contact": (("contact", "forces"), ("contact", "state")),
+    "linear solves": (("linear", "solve"),),
+    "predictor": (("predictor", "__call__"), ("predictor", "__init__")),
+    "set-up (mesh, problem)": (("mesh", "graded_mesh"), ("solver", "__init__")),
+}
+
+
+def breakdown(E_kPa: float = SPEED_E_KPA, nu: float = SPEED_NU, mesh: str = "medium") -> dict:
+    """Newton, linear-algebra and time figures of one default 100-point curve (the issue's problem).
+
+    The time split comes from cProfile (which slows the run by ~10%): assembly =
+    residual and tangent of the solid plus the sparse scatter; contact; linear solves
+    (factorisations and preconditioned Krylov solves); predictor; set-up; the rest of
+    the profiled time is Python overhead (Newton loop, line search, vector algebra).
+    Works on the code of this checkout or of an older one (``--breakdown-json``).
+    """
+    import cProfile
+    import pstats
+
+    material, indenter = NeoHooke(E_kPa=E_kPa, nu=nu), SphericalIndenter(RADIUS_MM)
+    simulate(material, indenter, DEPTH_MM, POINTS, mesh="coarse")  # warm-up (lazy imports)
+    t = time.perf_counter()
+    curve = simulate(material, indenter, DEPTH_MM, POINTS, mesh=mesh, keep_state=True)
+    wall = time.perf_counter() - t
+    problem = curve._state[0]
+    solver = problem.linear_solver
+    prof = cProfile.Profile()
+    prof.enable()
+    simulate(material, indenter, DEPTH_MM, POINTS, mesh=mesh)
+    prof.disable()
+    stats = pstats.Stats(prof).stats
+    total = max(ct for (_, _, name), (_, _, _, ct, _) in stats.items() if name == "simulate")
+    split = {bucket: sum(ct for (fname, _, func), (_, _, _, ct, _) in stats.items()
+                         if (Path(fname).stem, func) in keys and "skin_indent" in fname)
+             for bucket, keys in TIME_BUCKETS.items()}
+    split["python overhead"] = total - sum(split.values())
+    rep = curve.report
+    return {
+        "E_kPa": E_kPa, "nu": nu, "mesh": mesh, "wall_s": wall, "profiled_s": total,
+        **newton_stats(rep),
+        "factorisations": solver.factorisations, "preconditioned_solves": solver.cg_solves,
+        "preconditioner_applications": getattr(solver, "preconditioner_applications", None),
+        "time_split_s": split, "time_split_fraction": {k: v / total for k, v in split.items()},
+        "force_0.6mm_mN": float(curve.force_mN[-1]),
+    }
+
+
+def _breakdown_in(src: Path | None) -> dict:
+    """:func:`breakdown` in a fresh process, with ``src`` (an older checkout's ``src``) first on the path."""
+    env = dict(os.environ)
+    if src is not None:
+        env["PYTHONPATH"] = str(src) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--breakdown-json"], env=env,
+                         check=True, capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+OURS_WHOLE_PROCESS = ("from skin_indent.simulate import simulate; from skin_indent.mechanics import NeoHooke, "
+                      "SphericalIndenter; simulate(NeoHooke({E}, {nu}), SphericalIndenter({R}), {d}, {n})")
+FELUPE_WHOLE_PROCESS = ("import sys; sys.path.insert(0, {here!r}); import felupe_reference as f; "
+                        "f.run_felupe({E}, {nu}, {d}, {n})")
+
+
+def whole_process(pairs: int = 3, E_kPa: float = SPEED_E_KPA, nu: float = SPEED_NU,
+                  baseline_src: Path | None = None) -> dict:
+    """Wall time of whole processes (Python start, imports, one 100-point curve).
+
+    Ours, then (with ``baseline_src``) the older checkout's, then FElupe's, ``pairs``
+    times in turn; ratios of the medians and medians of the per-round ratios.
+    """
+    fmt = dict(E=E_kPa, nu=nu, R=RADIUS_MM, d=DEPTH_MM, n=POINTS, here=str(HERE))
+
+    def run(code, src=None):
+        env = dict(os.environ)
+        if src is not None:
+            env["PYTHONPATH"] = str(src) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        t = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code.format(**fmt)], env=env, check=True)
+        return time.perf_counter() - t
+
+    times = {"ours": [], "baseline": [], "felupe": []}
+    for _ in range(pairs):
+        times["ours"].append(run(OURS_WHOLE_PROCESS))
+        if baseline_src is not None:
+            times["baseline"].append(run(OURS_WHOLE_PROCESS, baseline_src))
+        times["felupe"].append(run(FELUPE_WHOLE_PROCESS))
+    out = {f"{k}_s": v for k, v in times.items() if v}
+    med = {k: statistics.median(v) for k, v in times.items() if v}
+    out.update({f"{k}_median_s": v for k, v in med.items()})
+    out["felupe_over_ours"] = med["felupe"] / med["ours"]
+    out["felupe_over_ours_per_round_median"] = statistics.median(
+        [f / o for f, o in zip(times["felupe"], times["ours"])])
+    if times["baseline"]:
+        out["felupe_over_baseline"] = med["felupe"] / med["baseline"]
+        out["baseline_over_ours"] = med["baseline"] / med["ours"]
+    return out
+
+
+def print_breakdown(label: str, b: dict) -> None:
+    frac = b["time_split_fraction"]
+    split = ", ".join(f"{k} {v:.2f} s ({100 * frac[k]:.0f} %)" for k, v in b["time_split_s"].items())
+    apps = b.get("preconditioner_applications")
+    print(f"  {label}: {b['wall_s']:.2f} s in process; {b['increments']} increments, {b['newton_iterations']} Newton "
+          f"iterations ({b['mean_iterations']:.2f} per increment), {b['line_search_evaluations']} line-search "
+          f"evaluations, {b['factorisations']} LU factorisations, {b['preconditioned_solves']} preconditioned solves"
+          + (f" ({apps} LU applications)" if apps is not None else "")
+          + (f", {b['tangents']} tangents + {b['modified_steps']} modified-Newton steps" if "tangents" in b else ""))
+    print(f"    profiled {b['profiled_s']:.2f} s: {split}")
 
 
 def bench_mesh(name: str, repeats: int, material, indenter, ref) -> dict:
@@ -196,6 +328,45 @@ def _pct(x: float) -> str:
     return f"{100 * x:+.3f} %"
 
 
+def speed_section(results: dict, args) -> None:
+    """Issue 15's figures: breakdown of one curve (E = 10 kPa, nu = 0.4, medium mesh), before and
+    after when ``--baseline-src`` is given (fresh processes, in turn, medians of 3), and whole
+    processes against FElupe."""
+    print(f"\nspeed (issue 15): E = {SPEED_E_KPA:g} kPa, nu = {SPEED_NU:g}, {POINTS} points to {DEPTH_MM} mm, "
+          f"medium mesh; breakdown of one curve in a fresh process (3 rounds, median wall time)")
+    runs = {"ours": []}
+    if args.baseline_src is not None:
+        runs["baseline"] = []
+    for _ in range(3):
+        for key in runs:
+            runs[key].append(_breakdown_in(args.baseline_src if key == "baseline" else None))
+    speed = {}
+    for key, rs in runs.items():
+        walls = [r["wall_s"] for r in rs]
+        speed[key] = {"wall_s_runs": walls, "wall_s_median": statistics.median(walls), "last": rs[-1]}
+        print_breakdown(f"{key} (median {statistics.median(walls):.2f} s of {', '.join(f'{w:.2f}' for w in walls)})",
+                        rs[-1])
+    if "baseline" in speed:
+        speed["baseline_over_ours"] = statistics.median(
+            [b["wall_s"] / o["wall_s"] for b, o in zip(runs["baseline"], runs["ours"])])
+        print(f"  in-process time, baseline / ours: {speed['baseline_over_ours']:.2f}x (median of the rounds)")
+    if args.whole_process_rounds > 0:
+        try:
+            felupe_reference._import_felupe()
+        except ImportError as err:
+            print(f"  whole processes against FElupe skipped: {err}")
+        else:
+            wp = whole_process(args.whole_process_rounds, baseline_src=args.baseline_src)
+            speed["whole_process"] = wp
+            print(f"  whole processes (start, imports, one curve; {args.whole_process_rounds} rounds): ours "
+                  f"{wp['ours_median_s']:.2f} s, FElupe {wp['felupe_median_s']:.2f} s: {wp['felupe_over_ours']:.1f}x "
+                  f"(per-round median {wp['felupe_over_ours_per_round_median']:.1f}x; target "
+                  f">= {TARGET_WHOLE_PROCESS_SPEEDUP:g}x)"
+                  + (f"; baseline {wp['baseline_median_s']:.2f} s: {wp['felupe_over_baseline']:.1f}x"
+                     if "baseline_median_s" in wp else ""))
+    results["speed"] = speed
+
+
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description="Forward-model benchmark (speed, accuracy, FElupe side by side).")
     parser.add_argument("--quick", action="store_true", help="coarse mesh only; no refinement study, no FElupe")
@@ -205,7 +376,16 @@ def main(argv=None) -> dict:
     parser.add_argument("--refine-levels", type=int, default=2,
                         help="uniform refinements of the coarse mesh (default 2; 3 takes ~6 min and ~2 GB)")
     parser.add_argument("--output", type=Path, default=RESULTS / "forward.json", help="JSON output file")
+    parser.add_argument("--baseline-src", type=Path, default=None,
+                        help="the src/ directory of an older checkout (e.g. from `git archive`): its breakdown "
+                             "and whole-process time are measured in turn with ours, as 'before'")
+    parser.add_argument("--whole-process-rounds", type=int, default=3,
+                        help="rounds of whole-process runs (ours, baseline, FElupe) for the ratio; 0 skips them")
+    parser.add_argument("--breakdown-json", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.breakdown_json:  # internal: one breakdown of the importable skin_indent, as JSON on stdout
+        print(json.dumps(breakdown(), default=float))
+        return {}
 
     material, indenter = NeoHooke(E_kPa=E_KPA, nu=NU), SphericalIndenter(RADIUS_MM)
     ref = reference()
@@ -302,6 +482,8 @@ def main(argv=None) -> dict:
         else:
             print()
 
+    if not args.quick:
+        speed_section(results, args)
     results["machine"]["loadavg_end"] = os.getloadavg()
     write_results(results, args.output)
     return results

@@ -36,11 +36,11 @@ the indentation test. Journal of Biomechanics 39, 1603-1610.*
 # increments (Newton's method at each) and returns a
 # :class:`~skin_indent.simulate.ForceDepthCurve`. ``keep_state=True`` keeps the final
 # displacement field so that we can look at it.
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
+from skin_indent.data import bundled_path
 from skin_indent.analytic import hertz_contact_radius, hertz_force, sneddon_sphere_force
 from skin_indent.mechanics import NeoHooke, SphericalIndenter
 from skin_indent.mechanics.fields import nodal_fields
@@ -136,15 +136,10 @@ print(f"at h/R = {h[-1] / R:.3f}: F/F_Hertz = {curve.force_mN[-1] / hertz_force(
 #
 # Checking against an independent code
 # ------------------------------------
-# ``tests/data/reference`` holds curves computed with FElupe, an independent
+# The package bundles a curve computed with FElupe, an independent
 # finite-element code (quadrilaterals, node-to-surface contact, its own mesh). They
 # are not fitted to: they only check the forward model. For E = 8 kPa and nu = 0.45:
-try:
-    ROOT = Path(__file__).resolve().parents[1]
-except NameError:  # sphinx-gallery runs the script from its folder, without __file__
-    ROOT = Path.cwd().parent
-reference = np.loadtxt(ROOT / "tests" / "data" / "reference" / "neo-hooke_halfspace_E8kPa_nu0.45.csv",
-                       delimiter=",", skiprows=1)
+reference = np.loadtxt(bundled_path("neo-hooke_halfspace_E8kPa_nu0.45.csv"), delimiter=",", skiprows=1)
 h_ref, F_ref = reference[reference[:, 0] > 0].T
 ours = simulate(NeoHooke(8.0, 0.45), sphere, h_ref, mesh="coarse")
 error = ours.force_mN / F_ref - 1
@@ -162,7 +157,7 @@ ax.set(xlabel="depth h (mm)", ylabel="difference to the reference (%)",
 # %%
 # The two codes agree to a few hundredths of a per cent at 0.6 mm. At the smallest
 # depths the contact zone spans only a few elements of a mesh designed for 0.6 mm,
-# which is why the paper, and :func:`~skin_indent.identify.fitting_data` with the
+# which is why the paper, and :func:`~skin_indent.measurement.prepare` with the
 # paper's window, ignore the first 0.05 mm. The reference code's truncated domain
 # also makes its curve about 0.1 % stiffer than a true half-space (see its
 # README).

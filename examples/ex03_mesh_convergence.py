@@ -25,13 +25,13 @@ nu = 0.45, the setting of the reference curve in ``tests/data/reference``.
 # surface element size only: 6, 12 and 24 elements across the design contact radius
 # :math:`a = \sqrt{R h_{max}}`. Away from the contact all three grow at the same rate,
 # so their elements there are about the same size.
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-from skin_indent.mechanics import MESH_FAMILY, IndentationMesh, NeoHooke, SphericalIndenter, graded_mesh
-from skin_indent.mechanics.mesh import _with_named_boundaries
+from skin_indent.mechanics import MESH_FAMILY, NeoHooke, SphericalIndenter, graded_mesh
+from skin_indent.data import bundled_path
+from skin_indent.mechanics.mesh import refined_uniformly
 from skin_indent.simulate import simulate
 
 material = NeoHooke(E_kPa=8.0, nu=0.45)
@@ -85,13 +85,7 @@ print(f"fine mesh, rtol = 1e-9: F changes by {F_f_tight / F_f - 1:+.1e} (relativ
 # wrapped as an :class:`~skin_indent.mechanics.IndentationMesh` with its named
 # boundaries (axis, top, bottom, outer) and passed to ``simulate`` like any other.
 coarse = family["coarse"]
-refined = IndentationMesh(
-    _with_named_boundaries(coarse.mesh.refined(1), coarse.extent_mm),
-    "coarse, refined uniformly once",
-    coarse.contact_radius_mm,
-    coarse.surface_size_mm / 2,
-    coarse.extent_mm,
-)
+refined = refined_uniformly(coarse, 1)
 F_refined = force_at_0_6(refined)
 coarse_error = abs(F_c / F_refined - 1)
 print(f"{refined.name}: {refined.n_elements} triangles, {n_unknowns(refined)} unknowns: "
@@ -110,12 +104,7 @@ print(f"fine against the refined coarse mesh: {F_f / F_refined - 1:+.1e} (relati
 #
 # Against the independent reference
 # ---------------------------------
-try:
-    ROOT = Path(__file__).resolve().parents[1]
-except NameError:  # sphinx-gallery runs the script from its folder, without __file__
-    ROOT = Path.cwd().parent
-reference = np.loadtxt(ROOT / "tests" / "data" / "reference" / "neo-hooke_halfspace_E8kPa_nu0.45.csv",
-                       delimiter=",", skiprows=1)
+reference = np.loadtxt(bundled_path("neo-hooke_halfspace_E8kPa_nu0.45.csv"), delimiter=",", skiprows=1)
 F_ref = reference[np.isclose(reference[:, 0], 0.6), 1][0]
 print(f"reference (FElupe): F(0.6 mm) = {F_ref:.4f} mN; refined coarse mesh {F_refined / F_ref - 1:+.2%}")
 

@@ -6,7 +6,7 @@ An in-vivo-like curve: estimates, uncertainty, and is nu identifiable?
 
    * how to read a measured curve with :func:`~skin_indent.measurement.load_csv`
      and keep the paper's fitting window with
-     :func:`~skin_indent.identify.fitting_data`;
+     :func:`~skin_indent.measurement.prepare`;
    * how to identify (E, nu) with :func:`~skin_indent.identify.identify` by the
      paper's filter, the better filter and least squares, and how to estimate the
      noise from the data alone (:func:`~skin_indent.inverse.estimate_noise`);
@@ -33,15 +33,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from skin_indent.data import bundled_path
-from skin_indent.identify import fitting_data, identify
+from skin_indent.fitting import identify
 from skin_indent.inverse import estimate_noise, hertz_equivalence, profile
-from skin_indent.measurement import load_csv
+from skin_indent.measurement import load_csv, prepare
 from skin_indent.plotting import plot_fit, plot_residuals, plot_sweep_history
 from skin_indent.response_surface import ResponseSurface, SurfaceGrid, default_settings
 
 R = 6.22  # mm
 measurement = load_csv(bundled_path("forearm_like.csv"), radius_mm=R)
-data = fitting_data(measurement, window=(0.05, 0.6))  # the paper's window, loading part
+data = prepare(measurement, window=(0.05, 0.6), contact="origin").data  # the paper's window, loading part
 print(measurement)
 print(f"fitting {data.n_points} points between {data.depth_mm[0]:.3f} and {data.depth_mm[-1]:.3f} mm")
 noise = estimate_noise(data.depth_mm, data.force_mN)

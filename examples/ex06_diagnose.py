@@ -4,14 +4,14 @@ Diagnosing a curve: where the model fails, which effect is missing, and the erro
 
 .. topic:: What you will learn
 
-   * how :func:`~skin_indent.diagnose.diagnose` fits the neo-Hookean half-space to a
+   * how :func:`~skin_indent.diagnosis.diagnose` fits the neo-Hookean half-space to a
      curve, judges its residual against the noise, and says where it fails;
    * how each candidate effect (``layer``, ``stiffening``, ``viscoelastic``,
      ``friction``, ``adhesion``, ``offset``) is refitted and ranked by BIC, and why
      some are reported as "not detectable here";
    * how adding the named effect (``add=``) climbs the error ladder until the
      residual is noise, and what it means when no rung gets there;
-   * how to write the HTML report (:func:`~skin_indent.diagnose.write_report`).
+   * how to write the HTML report (:func:`~skin_indent.diagnosis.write_report`).
 
 The first curve, ``v02_layer_soft_base.csv`` from the project's test data, was
 computed by an independent FE code (FElupe) for a 1 mm layer of 25 kPa bonded on a
@@ -32,16 +32,12 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 from skin_indent.data import bundled_path
-from skin_indent.diagnose import diagnose, write_report
+from skin_indent import Context, diagnose, write_report
 from skin_indent.measurement import load_csv
 
-try:
-    HERE = Path(__file__).resolve().parent
-except NameError:  # run interactively
-    HERE = Path("examples").resolve()
-CACHE = Path(tempfile.gettempdir()) / "skin_indent_gallery"
-measurement = load_csv(HERE.parent / "tests" / "data" / "hidden-effects" / "v02_layer_soft_base.csv")
-diagnosis = diagnose(measurement, cache_dir=CACHE)
+CACHE = Context(cache_dir=Path(tempfile.gettempdir()) / "skin_indent_gallery")
+measurement = load_csv(bundled_path("v02_layer_soft_base.csv"))
+diagnosis = diagnose(measurement, context=CACHE)
 print(diagnosis.report())
 verdict = diagnosis.verdict
 
@@ -55,7 +51,7 @@ verdict = diagnosis.verdict
 #
 # Add the effect and watch the error fall
 # ---------------------------------------
-added = diagnose(measurement, cache_dir=CACHE, add=(verdict,))
+added = diagnose(measurement, context=CACHE, add=(verdict,))
 rms_ladder = [f.rms_mN for f in added.ladder]
 for f in added.ladder:
     print(f"{f.model:<24} RMS {f.rms_mN:.4f} mN, BIC {f.bic:8.1f}, {'white' if f.white else 'structured'}")
@@ -86,7 +82,7 @@ plt.show()
 # 3 mm of 2.9 kPa fat, 9.4 kPa muscle). The best single effect lowers the error a lot
 # but leaves a structured residual above the noise: the ladder says that the model
 # family is still missing something, rather than pretending that it is not.
-forearm = diagnose(load_csv(bundled_path("forearm_like.csv")), cache_dir=CACHE)
+forearm = diagnose(load_csv(bundled_path("forearm_like.csv")), context=CACHE)
 print(forearm.report())
 best = forearm.ranking[0]
 print(f"best single effect: {best.model}, RMS {best.rms_mN:.3f} mN against noise {forearm.noise_mN:.3f} mN, "

@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 from _data import DATA
 
-from skin_indent.diagnose import CANDIDATES, diagnose, write_report
-from skin_indent.diagnose.workflow import STRONG
+from skin_indent.diagnosis import diagnose, write_report
+from skin_indent.effects import EFFECTS
+from skin_indent.diagnosis.workflow import STRONG
 from skin_indent.inverse import fit_least_squares
 from skin_indent.measurement import load_csv, measurement_from_arrays
 
@@ -77,7 +78,7 @@ def test_hidden_effect_is_named_and_adding_it_brings_the_error_to_the_noise(hidd
 
 def _stiffening_surface(cache):
     """The stiffening surface that diagnosis builds for a 0.6 mm curve (same runs, from the cache)."""
-    from skin_indent.diagnose.models import EFFECT_NU
+    from skin_indent.fitting.surfaces import EFFECT_NU
     from skin_indent.response_surface import SurfaceGrid
     from skin_indent.response_surface.effect_surface import EffectSurface, default_axes
 
@@ -135,7 +136,7 @@ def test_json_schema(hidden, run):
     assert set(out["base"]["parameters"]) == {"E_kPa", "nu"}
     for row in out["ranking"]:
         assert {"effect", "delta_bic", "rms_mN", "parameters", "white"} <= set(row)
-        assert row["effect"] in CANDIDATES
+        assert row["effect"] in EFFECTS
     assert out["ranking"][0]["effect"] == "offset" and out["ranking"][0]["delta_bic"] > STRONG
     assert all({"model", "rms_mN", "bic"} <= set(r) for r in out["ladder"])
 

@@ -313,12 +313,12 @@ def test_simulate_tiny_valid_run_succeeds():
 @pytest.fixture()
 def analytic_surface_for(monkeypatch):
     """`surface build` without finite elements: the analytic surface on the requested grid."""
-    import skin_indent.identify
+    import skin_indent.fitting
 
     def fake(radius_mm, max_depth_mm, *, grid=None, path=None, **kw):
         return analytic_surface(grid)
 
-    monkeypatch.setattr(skin_indent.identify, "surface_for", fake)
+    monkeypatch.setattr(skin_indent.fitting, "surface_for", fake)
 
 
 RANGE_TEXT = st.one_of(

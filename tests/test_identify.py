@@ -8,7 +8,9 @@ import sys
 import numpy as np
 import pytest
 
-from skin_indent.identify import fitting_data, identify, surface_for
+from skin_indent.context import Context
+from skin_indent.fitting import identify, surface_for
+from skin_indent.measurement import prepare
 from skin_indent.inverse import fit_ekf, fit_least_squares, format_table, run_blind_tests
 from skin_indent.measurement import load_csv, measurement_from_arrays
 from skin_indent.mechanics import NeoHooke, SphericalIndenter
@@ -100,10 +102,10 @@ def test_uncertainty_matches_monte_carlo_and_nu_is_identifiable_only_when_stiff(
     assert abs(r.noise_mN / 0.05 - 1) < 0.3  # noise level estimated from the residual
 
 
-def test_fitting_data_keeps_the_loading_window():
+def test_prepare_keeps_the_loading_window():
     d = np.r_[np.linspace(0.01, 0.6, 60), np.linspace(0.59, 0.0, 60)]
     m = measurement_from_arrays(d, 10 * np.maximum(d, 0) ** 1.5, time_s=np.arange(120.0))
-    data = fitting_data(m, (0.05, 0.6))
+    data = prepare(m, window=(0.05, 0.6), contact="origin")
     assert data.depth_mm.min() >= 0.05 and data.depth_mm.max() <= 0.6 and np.all(np.diff(data.depth_mm) > 0)
 
 
@@ -182,11 +184,20 @@ def test_demo_runs_end_to_end(tmp_path):
     assert "ready in 0.0 s" in p2.stdout
 
 
-def test_shifted_model_jacobian_matches_finite_differences(fe_surface):
-    from skin_indent.identify import ShiftedModel
+def _shifted(surface, d, bounds):
+    """The surface with the contact point as a parameter, bound to the depths d (the ``offset`` effect)."""
+    from skin_indent.measurement import measurement_from_arrays
+    from skin_indent.models import ComposedModel
 
-    model = ShiftedModel(fe_surface, (-0.05, 0.05))
+    data = prepare(measurement_from_arrays(d, np.ones_like(d) + d, radius_mm=R), contact="origin")
+    model = ComposedModel(surface, ("offset",), data)
+    model.bounds[0][-1], model.bounds[1][-1] = bounds
+    return model
+
+
+def test_shifted_model_jacobian_matches_finite_differences(fe_surface):
     d = np.linspace(0.03, 0.55, 12)
+    model = _shifted(fe_surface, d, (-0.05, 0.05))
     theta = np.array([12.0, 0.42, 0.015])
     J = model.jacobian(d, theta)
     for k, step in enumerate([1e-4, 1e-5, 1e-6]):
@@ -196,20 +207,19 @@ def test_shifted_model_jacobian_matches_finite_differences(fe_surface):
         fd = (model.force(d, tp) - model.force(d, tm)) / (2 * step)
         touching = d - theta[-1] > step
         assert np.allclose(J[touching, k], fd[touching], rtol=2e-3, atol=1e-6 * np.abs(fd).max())
-    assert np.all(model.force(np.array([0.01]), theta) == 0.0)
+    early = _shifted(fe_surface, np.array([0.01, 0.012, 0.5]), (-0.05, 0.05))
+    assert early.force(early.depth_mm, theta)[0] == 0.0
 
 
 def test_hidden_offset_is_found_by_the_shifted_model(fe_surface):
     """v05 (independent code, contact at recorded depth 0.020 mm, noise 0.05 mN)."""
     from _data import load_curve
 
-    from skin_indent.identify import ShiftedModel
-
     _, d, F = load_curve("hidden-effects/v05_offset.csv").T
     keep = (d > 0) & (d <= fe_surface.depth_range[1])
     d, F = d[keep], F[keep]
     base = fit_least_squares(fe_surface, d, F, np.array([6.0, 0.45]))
-    shifted = fit_least_squares(ShiftedModel(fe_surface, (-0.1, 0.1)), d, F, np.array([6.0, 0.45, 0.0]))
+    shifted = fit_least_squares(_shifted(fe_surface, d, (-0.1, 0.1)), d, F, np.array([6.0, 0.45, 0.0]))
     off, sd = shifted.parameters["offset_mm"], shifted.std["offset_mm"]
     assert abs(off - 0.020) < max(3 * sd, 0.003)
     assert shifted.rms_mN < 1.3 * 0.05 < base.rms_mN

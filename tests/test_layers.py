@@ -75,3 +75,20 @@ def test_bad_layers():
         LayeredSample((Layer(1.0, NeoHooke(1.0, 0.4)),), "granite")
     with pytest.raises(ValueError, match="small-strain or finite-strain"):
         LayeredSample((Layer(1.0, LinearElastic(1.0, 0.4)),), NeoHooke(1.0, 0.4))
+
+
+def test_neo_hookean_layers_in_one_pass_equal_the_per_layer_evaluation():
+    """Layers of neo-Hookean laws are evaluated with per-point Lame parameters: same forces and tangents."""
+    from skin_indent.mechanics import graded_mesh
+    from skin_indent.mechanics.axisymmetric import AxisymmetricSolid
+
+    sample = LayeredSample((Layer(0.5, NeoHooke(12.0, 0.45)), Layer(1.0, NeoHooke(8.0, 0.4))), NeoHooke(2.4, 0.48))
+    imesh = graded_mesh(6.22, 0.6, "coarse", interfaces_mm=sample.interfaces_mm)
+    solid = AxisymmetricSolid(imesh.mesh, sample)
+    assert solid._merged is not None
+    u = 1e-3 * np.random.default_rng(5).standard_normal(solid.n_dofs)
+    f_one, K_one = solid.forces(u)
+    solid._merged = None  # per layer, with masked copies
+    f_each, K_each = solid.forces(u)
+    assert np.abs(f_one - f_each).max() <= 1e-12 * np.abs(f_each).max()
+    assert np.abs(K_one - K_each).max() <= 1e-12 * np.abs(K_each).max()

@@ -15,7 +15,7 @@ from skin_indent.analytic import hertz_force, sneddon_sphere_force
 from skin_indent.mechanics import (ConvergenceError, IndentationProblem, LinearElastic, NeoHooke,
                                    SphericalIndenter, graded_mesh, load_mesh)
 from skin_indent.mechanics.weakform import residual_form, tangent_form
-from skin_indent.simulate import simulate
+from skin_indent.simulate import DEFAULT_INCREMENTS, not_a_knot_spline, simulate
 
 R = 6.22
 ROOT = Path(__file__).parents[1]
@@ -97,15 +97,64 @@ def test_force_is_exactly_proportional_to_E():
 
 
 def test_interpolated_curve_equals_direct_solves():
-    """The default mesh: interpolating between 20 solved increments costs less than its roughness."""
+    """The default mesh: interpolating between the solved increments costs less than its roughness."""
     d = np.linspace(0.06, 0.6, 10)
     law, ind = NeoHooke(8.0, 0.45), SphericalIndenter(R)
     fast = simulate(law, ind, d)
     direct = simulate(law, ind, d, solve_at_outputs=True)
-    assert fast.solved_depth_mm.size == 20 and direct.solved_depth_mm.size == d.size
+    assert fast.solved_depth_mm.size == DEFAULT_INCREMENTS and direct.solved_depth_mm.size == d.size
     err = np.abs(fast.force_mN / direct.force_mN - 1)
     print("interpolated vs direct:", np.round(err, 5))
     assert err.max() < 1e-3
+
+
+def test_solid_tangent_reuses_the_kinematics_of_the_residual(coarse_problem):
+    """Newton evaluates the residual first and the tangent only when it goes on: same matrices."""
+    prob = coarse_problem
+    u = smooth_displacement(prob)
+    f, Ke = prob.solid.forces(u)
+    f2, none = prob.solid.forces(u, tangent=False)
+    assert none is None and np.array_equal(f, f2)
+    assert np.array_equal(prob.solid.tangent(u), Ke)
+    v = smooth_displacement(prob, seed=3)
+    assert np.array_equal(prob.solid.tangent(v), prob.solid.forces(v)[1])  # another u: recomputed
+
+
+def test_not_a_knot_spline_is_scipys_cubic_spline():
+    from scipy.interpolate import CubicSpline
+
+    rng = np.random.default_rng(4)
+    for n in (2, 3, 4, 5, 12, 30):
+        x = np.cumsum(rng.uniform(0.1, 1.0, n))
+        y = rng.standard_normal(n)
+        xi = np.linspace(x[0], x[-1], 97)
+        ref = CubicSpline(x, y, bc_type="not-a-knot")(xi)
+        assert np.abs(not_a_knot_spline(x, y, xi) - ref).max() <= 1e-12 * np.abs(ref).max()
+
+
+def test_solver_statistics_count_the_linear_algebra():
+    curve = simulate(NeoHooke(10.0, 0.4), SphericalIndenter(R), 0.6, 100, mesh="coarse")
+    rep = curve.report
+    assert rep.tangents + rep.modified_steps == rep.total_iterations
+    assert 1 <= rep.factorisations <= rep.tangents + rep.modified_steps
+    assert rep.factorisations + rep.preconditioned_solves >= rep.total_iterations
+
+
+def test_hertz_start_and_modified_newton_leave_the_solution_unchanged():
+    """The first increment from Hertz's shape and the modified-Newton steps change the path, not the answer."""
+    from skin_indent.mechanics.predictor import hertz_start
+
+    law, ind, d = NeoHooke(8.0, 0.45), SphericalIndenter(R), np.geomspace(0.006, 0.6, 8)
+    imesh = graded_mesh(R, 0.6, "coarse")
+    fast = IndentationProblem(imesh, law, ind, 0.6)
+    F_fast, _, rep = fast.solve(d)
+    plain = IndentationProblem(imesh, law, ind, 0.6, modified_below=0.0)
+    F_plain, _, rep_plain = plain.solve(d, predictor="linear")  # zero first iterate, full Newton
+    assert np.abs(F_fast / F_plain - 1).max() < 1e-6
+    assert rep.iterations[0] <= 4 < rep_plain.iterations[0]  # the zero field needs 8-9 iterations
+    assert rep.modified_steps > 0 and rep_plain.modified_steps == 0
+    u0 = hertz_start(fast, 0.01)  # the surface on the axis sits at the sphere's tip
+    assert np.isclose(u0[fast.axis_top_dof], -0.01) and np.all(u0[~fast.free] == 0)
 
 
 def test_force_depth_curve_is_smooth():
@@ -123,7 +172,7 @@ def test_force_depth_curve_is_smooth():
 def test_newton_statistics_and_penetration():
     curve = simulate(NeoHooke(10.0, 0.4), SphericalIndenter(R), 0.6, 100, mesh="coarse")
     rep = curve.report
-    assert rep.increments == 20 and rep.step_cuts == 0
+    assert rep.increments == DEFAULT_INCREMENTS and rep.step_cuts == 0
     assert rep.mean_iterations < 8
     assert max(rep.residuals) <= 1e-6
     assert rep.max_penetration_ratio < 1e-3

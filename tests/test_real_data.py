@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 from _data import DATA
 
-from skin_indent.fit_recorded import fit_curve
-from skin_indent.identify import parse_fix, unit_surface_grid
+from skin_indent.fitting import fit, unit_surface_grid
 from skin_indent.measurement import (MeasurementError, find_contact_point, find_segments, load_csv, load_curve)
 from skin_indent.response_surface import ResponseSurface, default_settings
 
@@ -82,23 +81,23 @@ def test_chiaro_fit_with_nu_fixed_matches_the_instrument_hertz(unit_surface):
     surface, _ = unit_surface
     m = load_csv(REAL / "chiaro_AEBP1_R27.5um.csv", radius_mm=CHIARO_R_MM)
     t = time.perf_counter()
-    fit = fit_curve(m, surface, fixed={"nu": 0.499}, radius_mm=CHIARO_R_MM)
+    result = fit(m, surface, fixed={"nu": 0.499}, radius_mm=CHIARO_R_MM)
     elapsed = time.perf_counter() - t
-    print(f"\n{fit.report()}\n(fit in {elapsed:.2f} s)")
-    assert fit.success
-    assert fit.prepared.mode == "fit" and fit.prepared.baseline is not None
-    assert abs(fit.e_star_kPa / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.2
-    assert abs(fit.hertz["E_star_kPa"] / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.1
-    assert 0 < fit.fe_vs_hertz_percent < 25  # large strain: FE needs a stiffer material than Hertz
-    assert abs(fit.contact_point_mm - 0.0725) < 0.002 and 0 < fit.contact_point_std_mm < 1e-3
-    assert 0.4 < fit.max_depth_ratio < 0.5
-    d = fit.to_dict()
+    print(f"\n{result.report()}\n(fit in {elapsed:.2f} s)")
+    assert result.success
+    assert result.prepared.contact_mode == "fit" and result.prepared.baseline is not None
+    assert abs(result.e_star_kPa / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.2
+    assert abs(result.hertz["E_star_kPa"] / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.1
+    assert 0 < result.fe_vs_hertz_percent < 25  # large strain: FE needs a stiffer material than Hertz
+    assert abs(result.contact_point_mm - 0.0725) < 0.002 and 0 < result.contact_point_std_mm < 1e-3
+    assert 0.4 < result.max_depth_ratio < 0.5
+    d = result.to_dict()
     for key in ("baseline_mN", "baseline_tilt_mN_per_mm", "contact_point_mm", "contact_point_std_mm",
                 "E_star_kPa", "hertz", "fe_vs_hertz_percent"):
         assert d[key] is not None, key
     json.dumps(d)
     for words in ("baseline: subtracted", "contact point:", "fitted jointly", "FE differs from Hertz by"):
-        assert words in fit.report()
+        assert words in result.report()
     assert elapsed < 30  # ~0.4 s on an idle 2-core machine
 
 
@@ -113,10 +112,12 @@ def test_similarity_surface_matches_across_radii(unit_surface):
 
 
 def test_fix_parser_and_nu_half_is_refused_in_one_line():
-    assert parse_fix(["nu=0.499", "E=2", "contact_point_mm=0.07"]) == {"nu": 0.499, "E_kPa": 2.0,
-                                                                        "offset_mm": 0.07}
-    with pytest.raises(ValueError, match="NAME=VALUE"):
-        parse_fix(["poisson=0.5"])
+    from skin_indent.cli import CLIError, _parse_fix
+
+    assert _parse_fix(["nu=0.499", "E=2", "contact_point_mm=0.07"]) == {"nu": 0.499, "E_kPa": 2.0,
+                                                                         "offset_mm": 0.07}
+    with pytest.raises(CLIError, match="NAME=VALUE"):
+        _parse_fix(["poisson=0.5"])
 
 
 def run_cli(*args):
@@ -136,9 +137,16 @@ def test_fit_cli_on_the_chiaro_curve(unit_surface):
     assert out["baseline_mN"] != 0 and "baseline_tilt_mN_per_mm" in out
     assert abs(out["contact_point_mm"] - 0.0725) < 0.002 and out["contact_point_std_mm"] > 0
     assert abs(out["E_star_kPa"] / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.2
-    bad = run_cli("fit", csv, "--radius", "0.0275", "--surface", str(path), "--fix", "nu=0.5")
+    # the field's convention: nu = 0.5 is the incompressible limit, E* within a fraction of a % of nu = 0.499
+    half = run_cli("fit", csv, "--radius", "0.0275", "--surface", str(path), "--fix", "nu=0.5", "--json")
+    assert half.returncode == 0, half.stderr
+    limit = json.loads(half.stdout)
+    assert limit["parameters"]["nu"] == 0.5 and abs(limit["E_star_kPa"] / out["E_star_kPa"] - 1) < 0.005
+    assert limit["parameters"]["E_kPa"] == pytest.approx(0.75 * limit["E_star_kPa"])
+    assert any("incompressible limit" in n for n in limit["notes"])
+    bad = run_cli("fit", csv, "--radius", "0.0275", "--surface", str(path), "--fix", "nu=0.6")
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "Traceback" not in bad.stderr
-    assert "0.499" in bad.stderr
+    assert "0.5" in bad.stderr
 
 
 def test_instrument_file_without_afmformats_is_one_line(tmp_path, monkeypatch):
@@ -175,7 +183,7 @@ def test_diagnose_names_viscoelasticity_on_a_creep_curve(diagnose_cache):
     cannot follow it. The probe radius was not recorded: 30 um is assumed (13 um deep, so
     h/R ~ 0.45; the verdict does not depend on it, the modulus does). The retract, dominated
     by tethers (stepwise unbinding) that no candidate models, is left out (``segments``)."""
-    from skin_indent.diagnose import diagnose
+    from skin_indent.diagnosis import diagnose
 
     d = diagnose(load_csv(REAL / "jpk_creep_brain_Runknown.csv"), radius_mm=0.03, segments=("approach", "hold"),
                  candidates=("viscoelastic", "adhesion", "offset"), cache_dir=diagnose_cache, workers=2)
@@ -188,7 +196,7 @@ def test_diagnose_names_viscoelasticity_on_a_creep_curve(diagnose_cache):
 def test_diagnose_names_adhesion_on_the_retract_segment(diagnose_cache):
     """The force-save curve: hysteresis first (viscoelastic), then, on top of it, the tensile
     dip on retract (adhesion)."""
-    from skin_indent.diagnose import diagnose
+    from skin_indent.diagnosis import diagnose
 
     m = load_csv(REAL / "jpk_force-save-example_R18.64um.csv")
     first = diagnose(m, radius_mm=0.01864, candidates=("viscoelastic", "adhesion"), cache_dir=diagnose_cache,

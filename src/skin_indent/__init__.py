@@ -2,22 +2,41 @@
 
 Units everywhere: mm, kPa, mN, s (consistent: kPa x mm^2 = mN).
 
+>>> import skin_indent as si
+>>> m = si.load_csv(si.bundled_path("forearm_like.csv"), radius_mm=6.22)
+>>> result = si.fit(m, window=(0.05, 0.6))     # doctest: +SKIP
+>>> diagnosis = si.diagnose(m)                  # doctest: +SKIP
+
 Where things live
 -----------------
-- ``skin_indent.measurement``: where data enters (CSV, units, segments, contact point).
+- ``skin_indent.measurement``: where data enters (CSV and instrument files, units,
+  segments, contact point) and :func:`prepare`, the one preparation of a recorded curve.
 - ``skin_indent.mechanics``: the finite-element forward model (mesh, materials,
   axisymmetric large-strain assembly, sphere contact, incremental Newton).
 - ``skin_indent.simulate``: the one seam between mechanics and everything else.
+- ``skin_indent.effects``: the physical effects, one module each, and :class:`Model`.
 - ``skin_indent.response_surface``: F(h; E, nu, ...) on a grid, cached and interpolated.
+- ``skin_indent.models``: force models for fits (elastic core plus effects, Hertz).
 - ``skin_indent.inverse``: identification (EKF as in Delalleau et al. 2006, least squares,
   uncertainty, identifiability).
+- ``skin_indent.fitting``: from a recorded curve to parameters (:func:`fit`).
+- ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`).
+- ``skin_indent.cli``: the ``skin-indent`` command.
 """
 
 __version__ = "0.1.0"
 
 # The main nouns, importable from the top level; loaded on first use so that
-# ``import skin_indent`` (and the CLI's start) stays fast.
+# ``import skin_indent`` (and the CLI's start) stays fast. No submodule shares a
+# name with these (a submodule, once imported, would shadow a lazy name).
 _EXPORTS = {
+    "load_csv": "skin_indent.measurement",
+    "load_curve": "skin_indent.measurement",
+    "load_curves": "skin_indent.measurement",
+    "prepare": "skin_indent.measurement",
+    "Measurement": "skin_indent.measurement",
+    "PreparedCurve": "skin_indent.measurement",
+    "bundled_path": "skin_indent.data",
     "simulate": "skin_indent.simulate",
     "ForceDepthCurve": "skin_indent.simulate",
     "NeoHooke": "skin_indent.mechanics.materials",
@@ -32,12 +51,21 @@ _EXPORTS = {
     "RIGID": "skin_indent.mechanics.layers",
     "Protocol": "skin_indent.protocol",
     "Model": "skin_indent.effects",
-    "load_csv": "skin_indent.measurement",
-    "Measurement": "skin_indent.measurement",
+    "Effect": "skin_indent.effects",
+    "EFFECTS": "skin_indent.effects",
+    "register_effect": "skin_indent.effects",
     "ResponseSurface": "skin_indent.response_surface",
     "SurfaceGrid": "skin_indent.response_surface",
-    "identify": "skin_indent.identify",
+    "Context": "skin_indent.context",
+    "fit": "skin_indent.fitting",
+    "identify": "skin_indent.fitting",
+    "surface_for": "skin_indent.fitting",
+    "CurveFit": "skin_indent.fitting",
+    "diagnose": "skin_indent.diagnosis",
+    "Diagnosis": "skin_indent.diagnosis",
+    "write_report": "skin_indent.diagnosis",
 }
+_RENAMED = {"register_effect": "register"}
 __all__ = ["__version__", *_EXPORTS]
 
 
@@ -45,5 +73,29 @@ def __getattr__(name):
     if name in _EXPORTS:
         import importlib
 
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
+        value = getattr(importlib.import_module(_EXPORTS[name]), _RENAMED.get(name, name))
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'skin_indent' has no attribute {name!r}")
+
+
+def _keep_functions_over_modules():
+    """``si.simulate`` stays the function once the module ``skin_indent.simulate`` is imported.
+
+    Importing a submodule sets it as an attribute of its package; the one submodule whose
+    name is also a top-level function (``simulate``, the seam module) must not shadow it.
+    ``import skin_indent.simulate`` and ``from skin_indent.simulate import ...`` work as usual.
+    """
+    import sys
+    import types
+
+    class _Package(types.ModuleType):
+        def __setattr__(self, name, value):
+            if name == "simulate" and isinstance(value, types.ModuleType):
+                return  # reachable as sys.modules["skin_indent.simulate"]
+            super().__setattr__(name, value)
+
+    sys.modules[__name__].__class__ = _Package
+
+
+_keep_functions_over_modules()

@@ -18,7 +18,6 @@ radius a:
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import brentq
 
 
 def reduced_modulus(E_kPa, nu):
@@ -49,6 +48,8 @@ def sneddon_sphere_force(depth_mm, E_kPa, nu, radius_mm):
 
     Parameters are those of :func:`hertz_force`; valid for depths below R.
     """
+    from scipy.optimize import brentq  # lazy: scipy.optimize is slow to import
+
     h = np.atleast_1d(np.asarray(depth_mm, dtype=float))
     R = radius_mm
     out = np.zeros_like(h)

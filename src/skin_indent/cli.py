@@ -114,10 +114,10 @@ def _run_simulate(args) -> int:
         protocol = Protocol.from_measurement(load_csv(args.protocol))
     elif args.unload or not material.path_independent or args.friction > 0:
         protocol = Protocol.ramp(args.depth, args.points, args.speed, unload=args.unload)
+    print(f"model: {material.name} {material.parameters()}; sphere R = {args.radius:g} mm", flush=True)
     curve = simulate(material, indenter, args.depth, args.points, mesh=args.mesh, increments=args.increments,
                      protocol=protocol, offset_mm=args.offset, keep_state=args.vtu is not None, contact=contact)
     curve.to_csv(args.out)
-    print(f"model: {material.name} {material.parameters()}; sphere R = {args.radius:g} mm")
     print(f"mesh: {curve.mesh_name}")
     print(f"Newton: {curve.report.summary()}")
     k = int(np.argmax(curve.force_mN))
@@ -162,7 +162,8 @@ def _run_surface_build(args) -> int:
 
     from .mechanics.contact import SphericalIndenter
     from .response_surface import SurfaceGrid, parse_range
-    from .identify import surface_for
+    from .context import Context
+    from .fitting import surface_for
 
     SphericalIndenter(args.radius)  # validates the radius
     if not (args.depth > 0 and np.isfinite(args.depth)):
@@ -174,8 +175,8 @@ def _run_surface_build(args) -> int:
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
     t = time.perf_counter()
-    surface = surface_for(args.radius, args.depth, grid=grid, path=args.out, workers=args.workers,
-                          scheduler=args.scheduler)
+    surface = surface_for(args.radius, args.depth, grid=grid, path=args.out,
+                          context=Context(workers=args.workers, scheduler=args.scheduler, progress=True))
     where = args.out or "the cache"
     print(f"surface {surface.hash[:12]}: {len(grid.E_kPa)} E x {len(grid.nu)} nu x {len(grid.depth_mm)} depths, "
           f"R = {args.radius:g} mm, ready in {time.perf_counter() - t:.1f} s ({where})")
@@ -186,9 +187,45 @@ def _run_surface_build(args) -> int:
     return 0
 
 
-def _add_fit(sub):
-    from .identify import CONTACT_MODES, METHODS
+def _parse_window(text: str) -> tuple[float, float]:
+    """``"0.05:0.6"`` -> (0.05, 0.6) mm, with a one-line error for anything else."""
+    import math
 
+    try:
+        lo, hi = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise CLIError(f"window must be MIN:MAX in mm (e.g. 0.05:0.6), got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
+        raise CLIError(f"window must satisfy 0 <= MIN < MAX, got {text!r}")
+    return lo, hi
+
+
+#: ``--fix`` names and the model parameter each one sets.
+FIX_ALIASES = {"E_kPa": "E_kPa", "E": "E_kPa", "nu": "nu", "contact_point_mm": "offset_mm",
+               "offset_mm": "offset_mm"}
+
+
+def _parse_fix(items) -> dict[str, float]:
+    """``["nu=0.499", "E_kPa=3"]`` -> ``{"nu": 0.499, "E_kPa": 3.0}`` (model names), one-line errors."""
+    import math
+
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, sep, value = str(item).partition("=")
+        name = name.strip()
+        if not sep or name not in FIX_ALIASES:
+            raise CLIError(f"--fix must be NAME=VALUE with NAME one of {', '.join(FIX_ALIASES)}, got {item!r}")
+        try:
+            number = float(value)
+        except ValueError:
+            raise CLIError(f"--fix {name}: {value!r} is not a number") from None
+        if not math.isfinite(number):
+            raise CLIError(f"--fix {name}: the value must be finite, got {value!r}")
+        out[FIX_ALIASES[name]] = number
+    return out
+
+
+def _add_fit(sub):
     p = sub.add_parser("fit", help="identify E and nu from a measured curve",
                        description="Fit a neo-Hookean half-space to the loading (approach) segment of a measured "
                                    "curve (CSV with depth_mm|depth_um|depth_m, force_mN|force_N|force_uN, optional "
@@ -196,22 +233,26 @@ def _add_fit(sub):
                                    "afmformats package). A curve that starts before contact gets its force baseline "
                                    "subtracted (and reported) and its contact point fitted with the material.")
     p.add_argument("data", type=Path, help="measurement CSV (or .jpk-force etc. with afmformats installed)")
-    p.add_argument("--method", choices=METHODS, default="lsq",
+    p.add_argument("--method", choices=("ekf-paper", "ekf", "lsq"), default="lsq",
                    help="ekf-paper: the paper's filter; ekf: better-conditioned filter; lsq: least squares (default)")
     p.add_argument("--surface", type=Path, default=None,
                    help="response surface file (default: cache, built if needed); a neo-Hookean surface of another "
                         "radius is rescaled by similarity")
     p.add_argument("--window", default=None,
                    help="indentation depth window MIN:MAX in mm past the contact point (e.g. 0.05:0.6)")
-    p.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22; AFM: e.g. 0.0275)")
+    p.add_argument("--radius", type=float, default=None,
+                   help="sphere radius, mm (default: the file's, else the skin sphere 6.22; AFM: e.g. 0.0275)")
     p.add_argument("--start", default=None, help="start values E,nu (default: a Hertz estimate at nu = 0.4)")
     p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
-                   help="hold a parameter fixed (repeatable): E_kPa, nu or contact_point_mm, e.g. --fix nu=0.499 "
-                        "(the FE law is compressible: 0.499 stands for incompressible)")
-    p.add_argument("--contact", choices=CONTACT_MODES, default="auto",
+                   help="hold a parameter fixed (repeatable): E_kPa, nu or contact_point_mm, e.g. --fix nu=0.5 "
+                        "(the incompressible limit of the compressible FE law)")
+    p.add_argument("--contact", choices=("auto", "fit", "origin"), default="auto",
                    help="contact point: auto (fitted if the curve has a pre-contact baseline, else recorded depth "
                         "0; default), fit (always fitted), origin (recorded depth 0)")
     p.add_argument("--tol", type=float, default=None, help="stop rule C of the filters (default 1e-6)")
+    p.add_argument("--strict", action="store_true",
+                   help="exit with status 3 when a result is flagged as not to be trusted (a parameter at a bound, "
+                        "a misfit over 10 times the noise); flags are always printed as warnings")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=_run_fit)
 
@@ -224,50 +265,57 @@ def _parse_start(text):
     return np.array([E, nu])
 
 
+def _positive_radius(radius):
+    if radius is not None and not (np.isfinite(radius) and radius > 0):
+        raise CLIError(f"--radius must be a positive number of mm, got {radius:g}")
+
+
 def _run_fit(args) -> int:
-    import json
+    from ._json import dumps
+    from .context import Context
+    from .fitting import fit
+    from .measurement import load_curve, prepare
 
-    from .fit_recorded import fit_prepared, prepare_fit
-    from .identify import SIMILARITY_RATIOS, parse_fix, parse_window, surface_for
-    from .measurement import load_curve
-    from .mechanics.contact import SphericalIndenter
-    from .response_surface import ResponseSurface
-
-    SphericalIndenter(args.radius)
-    fixed = parse_fix(args.fix)
-    window = parse_window(args.window) if args.window else None
+    _positive_radius(args.radius)
+    fixed = _parse_fix(args.fix)
+    window = _parse_window(args.window) if args.window else None
     x0 = _parse_start(args.start) if args.start else None
     measurement = load_curve(args.data, radius_mm=args.radius)
-    prepared = prepare_fit(measurement, window, contact=args.contact, fixed=fixed)
+    prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
+    if not args.json:
+        data = prepared.data
+        print(f"data: {args.data} ({data.n_points} loading points from {data.depth_mm[0]:.4g} to "
+              f"{data.depth_mm[-1]:.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})",
+              flush=True)
+    surface = None
     if args.surface is not None:
+        from .response_surface import ResponseSurface
+
         if not args.surface.is_file():
             raise CLIError(f"surface file not found: {args.surface}")
         surface = ResponseSurface.load(args.surface)
         r_surface = surface.settings.get("radius_mm")
-        if r_surface is not None and abs(r_surface - args.radius) > 1e-9 * args.radius:
+        if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:
             try:
-                surface = surface.at_radius(args.radius)
+                surface = surface.at_radius(prepared.radius_mm)
             except ValueError:
                 raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for "
-                               f"{args.radius:g} mm") from None
-    else:
-        depth = prepared.max_indentation_mm
-        if prepared.mode == "fit":  # room for the contact point to move earlier than its first guess
-            depth = max(depth, min(1.5 * depth, SIMILARITY_RATIOS[-1] * args.radius))
-        surface = surface_for(args.radius, depth, progress=not args.json)
-    fit = fit_prepared(prepared, surface, args.method, radius_mm=args.radius, fixed=fixed, x0=x0, tol=args.tol)
+                               f"{prepared.radius_mm:g} mm") from None
+    result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol,
+                 context=Context(progress=not args.json))
     if args.json:
-        print(json.dumps(fit.to_dict()))
+        print(dumps(result.to_dict()))
     else:
-        data = prepared.data
-        print(f"data: {args.data} ({data.n_points} loading points from {data.depth_mm[0]:.4g} to "
-              f"{data.depth_mm[-1]:.4g} mm), sphere R = {args.radius:g} mm")
-        print(fit.report())
-    return 0 if fit.success else 1
+        print(result.report())
+    for flag in result.flags:
+        print(f"skin-indent fit: warning: {args.data}: {flag}", file=sys.stderr)
+    if not result.success:
+        return 1
+    return 3 if (args.strict and result.flags) else 0
 
 
 def _add_diagnose(sub):
-    from .diagnose.workflow import CANDIDATES
+    from .effects import EFFECTS
 
     p = sub.add_parser("diagnose", help="compare model and measurement, name the missing physical effect",
                        description="Fit the neo-Hookean half-space to every segment of a measured curve, test "
@@ -276,14 +324,15 @@ def _add_diagnose(sub):
     p.add_argument("data", type=Path, help="measurement CSV (time_s optional) or instrument file")
     p.add_argument("--model", default="neo-hooke",
                    help="base model: neo-hooke, optionally with effects, e.g. neo-hooke+layer (same as --add)")
-    p.add_argument("--candidates", default=",".join(CANDIDATES),
-                   help=f"comma-separated effects to test (default {','.join(CANDIDATES)})")
+    p.add_argument("--candidates", default=",".join(EFFECTS),
+                   help=f"comma-separated effects to test (default {','.join(EFFECTS)})")
     p.add_argument("--add", action="append", default=[], metavar="EFFECT",
                    help="add an effect to the model (repeatable, in order): the error ladder")
     p.add_argument("--noise", type=float, default=None, help="noise standard deviation, mN (default: from the data)")
     p.add_argument("--segments", default="approach,hold,retract",
                    help="kinds of motion to diagnose (default all; only trailing ones can be left out)")
-    p.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
+    p.add_argument("--radius", type=float, default=None,
+                   help="sphere radius, mm (default: the file's, else the skin sphere 6.22)")
     p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="coarse",
                    help="mesh of the finite-element runs behind the surfaces (default coarse: within 0.03%% of "
                         "medium, below the 0.3%% model error that diagnosis allows)")
@@ -296,30 +345,31 @@ def _add_diagnose(sub):
 
 
 def _run_diagnose(args) -> int:
-    import json
-
-    from .diagnose import diagnose, write_report
-    from .mechanics.contact import SphericalIndenter
+    from ._json import dumps
+    from .context import Context
+    from .diagnosis import diagnose, write_report
     from .measurement import load_curve
 
-    SphericalIndenter(args.radius)
+    _positive_radius(args.radius)
     model = args.model.split("+")
     if model[0] != "neo-hooke":
         raise CLIError(f"--model must start with neo-hooke (the base law), got {args.model!r}")
+    if args.scheduler is not None and args.workers is not None:
+        raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
     add = [*model[1:], *args.add]
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()]
     measurement = load_curve(args.data, radius_mm=args.radius)
     segments = tuple(x.strip() for x in args.segments.split(",") if x.strip())
-    diag = diagnose(measurement, radius_mm=args.radius, candidates=candidates, add=add, noise_mN=args.noise,
-                    segments=segments,
-                    workers=args.workers, scheduler=args.scheduler, progress=not args.json, mesh=args.mesh)
+    context = Context(workers=args.workers, scheduler=args.scheduler, progress=not args.json)
+    diag = diagnose(measurement, candidates=candidates, add=add, noise_mN=args.noise, segments=segments,
+                    context=context, mesh=args.mesh)
     if args.report is not None:
         page = write_report(diag, args.report)
     if args.json:
         out = diag.to_dict()
         if args.report is not None:
             out["report"] = str(page)
-        print(json.dumps(out, allow_nan=False))
+        print(dumps(out))
     else:
         print(diag.report())
         if args.report is not None:
@@ -366,11 +416,15 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "run", None):
         parser.print_help()
         return 2
-    from .mechanics.solver import ConvergenceError
-
     try:
+        from ._threads import configure_threads
+
+        configure_threads()  # BLAS threads: 1 per process, or SKIN_INDENT_THREADS=N|off
         return args.run(args)
-    except (CLIError, ValueError, TypeError, ConvergenceError, OSError) as err:
+    except (CLIError, ValueError, TypeError, OSError, RuntimeError) as err:  # MeasurementError is a ValueError
+        solver = sys.modules.get("skin_indent.mechanics.solver")  # loaded by whatever could fail to converge
+        if isinstance(err, RuntimeError) and not (solver and isinstance(err, solver.ConvergenceError)):
+            raise
         message = " ".join(str(err).split()) or type(err).__name__
         print(f"skin-indent {args.command}: error: {message}", file=sys.stderr)
         return 2

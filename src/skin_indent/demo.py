@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from .data import bundled_path
-from .identify import PAPER_TOLERANCE, fitting_data, identify, surface_for
-from .measurement import load_csv
+from .context import Context
+from .fitting import PAPER_TOLERANCE, identify, surface_for
+from .measurement import load_csv, prepare
 
 RADIUS_MM = 6.22
 WINDOW_MM = (0.05, 0.6)
@@ -35,11 +36,12 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     measurement = load_csv(bundled_path("forearm_like.csv"), radius_mm=RADIUS_MM)
-    data = fitting_data(measurement, WINDOW_MM)
+    data = prepare(measurement, window=WINDOW_MM, contact="origin").data
     echo(f"data: {measurement.source} ({measurement.n_points} points; fitting {data.n_points} in "
          f"{WINDOW_MM[0]}-{WINDOW_MM[1]} mm), sphere R = {RADIUS_MM} mm")
     t = time.perf_counter()
-    surface = surface_for(RADIUS_MM, WINDOW_MM[1], cache_dir=cache_dir, workers=workers, progress=progress)
+    surface = surface_for(RADIUS_MM, WINDOW_MM[1],
+                          context=Context(cache_dir=cache_dir, workers=workers, progress=progress))
     echo(f"response surface: {surface.grid.shape[1]} E x {surface.grid.shape[2]} nu x {surface.grid.shape[0]} "
          f"depths, ready in {time.perf_counter() - t:.1f} s")
     noise = inverse.estimate_noise(data.depth_mm, data.force_mN)

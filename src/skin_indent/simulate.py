@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from .mechanics.contact import ContactLaw, SphericalIndenter
 from .mechanics.layers import LayeredSample
@@ -36,8 +35,13 @@ PENALTY = 1.2e4
 #: Newton tolerance on the residual relative to the contact force vector; 1e-6
 #: changes the force by < 1e-6 relative against 1e-10 (measured).
 RTOL = 1e-6
-#: Increments for path-independent laws; the force between them is interpolated.
-DEFAULT_INCREMENTS = 20
+#: Increments for path-independent laws; the force between them is interpolated
+#: (cubic spline of F / h^1.5). Measured on the default mesh against direct solves at
+#: all 100 depths (E = 10 kPa, nu = 0.4 and E = 5 kPa, nu = 0.48): 12 increments
+#: deviate by at most 7.5e-4 for h >= 0.05 mm, 20 by 6.0e-4, 40 by 6.8e-4 - the direct
+#: solves themselves scatter by ~5e-4 about a smooth curve (quadrature points entering
+#: contact), so more increments buy nothing measurable; 8 increments give 1.5e-3.
+DEFAULT_INCREMENTS = 12
 
 
 @dataclass
@@ -92,6 +96,45 @@ class ForceDepthCurve:
 
         problem, u, depth = self._state
         return write_vtu(problem, u, depth, path)
+
+
+def not_a_knot_spline(x: np.ndarray, y: np.ndarray, xi: np.ndarray) -> np.ndarray:
+    """Values at ``xi`` of the cubic spline through ``(x, y)`` with not-a-knot ends.
+
+    The same interpolant as ``scipy.interpolate.CubicSpline(x, y, bc_type="not-a-knot")``
+    (tested to round-off), without importing :mod:`scipy.interpolate` (about 0.25 s of a
+    process's start). ``x`` strictly increasing; ``xi`` inside ``[x[0], x[-1]]``
+    (outside, the end cubics are extended). The result is linear in ``y``.
+    """
+    x, y, xi = np.asarray(x, float), np.asarray(y, float), np.asarray(xi, float)
+    n = x.size
+    if n < 4:  # a line or a parabola: the rare short case is left to scipy
+        from scipy.interpolate import CubicSpline
+
+        return CubicSpline(x, y, bc_type="not-a-knot")(xi)
+    dx = np.diff(x)
+    m = np.diff(y) / dx
+    # slopes s_i at the knots: continuity of the second derivative inside, and a
+    # continuous third derivative at the second and last-but-one knots
+    A = np.zeros((n, n))
+    b = np.empty(n)
+    i = np.arange(1, n - 1)
+    A[i, i - 1] = dx[1:]
+    A[i, i] = 2.0 * (dx[:-1] + dx[1:])
+    A[i, i + 1] = dx[:-1]
+    b[1:-1] = 3.0 * (dx[1:] * m[:-1] + dx[:-1] * m[1:])
+    d = x[2] - x[0]
+    A[0, 0], A[0, 1] = dx[1], d
+    b[0] = ((dx[0] + 2.0 * d) * dx[1] * m[0] + dx[0] ** 2 * m[1]) / d
+    d = x[-1] - x[-3]
+    A[-1, -2], A[-1, -1] = d, dx[-2]
+    b[-1] = (dx[-1] ** 2 * m[-2] + (2.0 * d + dx[-1]) * dx[-2] * m[-1]) / d
+    s = np.linalg.solve(A, b)
+    k = np.clip(np.searchsorted(x, xi, side="right") - 1, 0, n - 2)
+    t = xi - x[k]
+    c2 = (3.0 * m[k] - 2.0 * s[k] - s[k + 1]) / dx[k]
+    c3 = (s[k] + s[k + 1] - 2.0 * m[k]) / dx[k] ** 2
+    return y[k] + t * (s[k] + t * (c2 + t * c3))
 
 
 def output_depths(depth_mm: float, points: int) -> np.ndarray:
@@ -153,7 +196,8 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     increments : int, optional
         Number of solved increments for path-independent (elastic, frictionless)
         laws, geometrically spaced from ``min(h_1, h_max / 100)`` to ``h_max``
-        (default 20); the force at the output depths is interpolated.
+        (default ``DEFAULT_INCREMENTS`` = 12); the force at the output depths is
+        interpolated.
     solve_at_outputs : bool
         Solve equilibrium exactly at the output depths instead.
     protocol : Protocol, optional
@@ -220,8 +264,7 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     else:
         # F / h^1.5 is smooth and finite as h -> 0 (Hertz), so a cubic spline of it is
         # accurate down to the smallest depths; the result is linear in the forces.
-        ratio = CubicSpline(solved, forces / solved**1.5, bc_type="not-a-knot")
-        out = ratio(depths) * depths**1.5
+        out = not_a_knot_spline(solved, forces / solved**1.5, depths) * depths**1.5
     state = (problem, u, float(solved[-1])) if keep_state else None
     return ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state)
 

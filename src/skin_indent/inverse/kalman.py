@@ -34,9 +34,9 @@ import time
 from collections.abc import Mapping
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 
 from ._coords import Coordinates
+from ._units import in_force_units
 from ._problem import make_problem
 from .noise import estimate_noise
 from .result import IdentificationResult, build_result
@@ -92,7 +92,10 @@ class _SweepRecorder:
         }
 
 
-def _make_filter(p: int, R: float) -> ExtendedKalmanFilter:
+def _make_filter(p: int, R: float):
+    """A :class:`filterpy.kalman.ExtendedKalmanFilter` with F = I, R and Q = 0."""
+    from filterpy.kalman import ExtendedKalmanFilter  # lazy: filterpy imports most of scipy
+
     kf = ExtendedKalmanFilter(dim_x=p, dim_z=1)
     kf.F = np.eye(p)
     kf.R = np.array([[R]])
@@ -106,6 +109,7 @@ def _order(n: int, sweep: int) -> range:
 
 
 # ---------------------------------------------------------------------------------------------
+@in_force_units
 def fit_ekf_paper(model, depth, force, x0, *, fixed: Mapping[str, float] | None = None,
                   tol: float = 1e-6, max_sweeps: int = 1000, p0_std=None,
                   measurement_std_mN: float = PAPER_MEASUREMENT_STD_MN, process_std=None,
@@ -272,6 +276,7 @@ def fit_ekf_paper(model, depth, force, x0, *, fixed: Mapping[str, float] | None 
 
 
 # ---------------------------------------------------------------------------------------------
+@in_force_units
 def fit_ekf(model, depth, force, x0, *, fixed: Mapping[str, float] | None = None,
             noise_mN: float | None = None, tol: float = 1e-6, max_sweeps: int = 20,
             coordinates: str = "auto", prior_weight: float = 0.01, linearization: str = "hybrid",

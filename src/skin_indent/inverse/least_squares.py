@@ -6,15 +6,16 @@ import time
 from collections.abc import Mapping
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ._coords import Coordinates
+from ._units import in_force_units
 from ._problem import make_problem
 from .result import IdentificationResult, build_result
 
 __all__ = ["fit_least_squares"]
 
 
+@in_force_units
 def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | None = None,
                       noise_mN: float | None = None, coordinates: str = "auto", x_scale="jac",
                       loss: str = "linear", ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-8,
@@ -91,6 +92,8 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
     def jac(u):
         x, dxdu = coords.external(u)
         return problem.model_jacobian(x) @ dxdu
+
+    from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
 
     t0 = time.perf_counter()
     sol = least_squares(fun, coords.internal(x_start), jac=jac, bounds=coords.bounds, method="trf",

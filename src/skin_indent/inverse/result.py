@@ -95,23 +95,10 @@ def _correlation(cov: np.ndarray, fallback: np.ndarray | None = None) -> np.ndar
 
 
 def _jsonable(obj):
-    """Recursively convert to JSON-safe Python objects (NaN/inf -> None)."""
-    if isinstance(obj, Mapping):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.bool_, bool)):
-        return bool(obj)
-    if isinstance(obj, (np.integer, int)):
-        return int(obj)
-    if isinstance(obj, (np.floating, float)):
-        f = float(obj)
-        return f if math.isfinite(f) else None
-    if obj is None or isinstance(obj, str):
-        return obj
-    return str(obj)
+    """JSON-safe objects: the package's one encoder (:func:`skin_indent._json.jsonable`)."""
+    from .._json import jsonable
+
+    return jsonable(obj)
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,7 +128,8 @@ class IdentificationResult:
     chi2 : float
         ``sum((residual / noise_mN)^2)``.
     aic, bic : float
-        See the module notes (Gaussian likelihood, sigma estimated by ML).
+        See the module notes (Gaussian likelihood, sigma estimated by ML):
+        :attr:`BIC_FORMULA`.
     method : {"ekf-paper", "ekf", "lsq"}
     iterations : int
         Sweeps through the curve for the filters; Jacobian evaluations (= TRF
@@ -185,6 +173,9 @@ class IdentificationResult:
     covariance_source: str = "jacobian"
     info: Mapping[str, Any] = field(default_factory=dict)
 
+    #: how ``bic`` is computed (results of other kinds name their own)
+    BIC_FORMULA = "n ln(2 pi RSS / n) + n + (p + 1) ln n (Gaussian, noise by maximum likelihood)"
+
     @property
     def success(self) -> bool:
         """True if the method reports convergence (``status > 0``)."""
@@ -218,6 +209,7 @@ class IdentificationResult:
             "redchi": self.redchi,
             "aic": self.aic,
             "bic": self.bic,
+            "bic_formula": self.BIC_FORMULA,
             "iterations": self.iterations,
             "status": self.status,
             "success": self.success,

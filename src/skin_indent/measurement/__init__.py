@@ -28,12 +28,17 @@ the modules, in the order data flows through them, are:
 - :mod:`.core`: :class:`Measurement`, :func:`measurement_from_arrays`;
 - :mod:`.csv_io`: :func:`load_csv`, :func:`save_csv` and the accepted column
   names :data:`DEPTH_COLUMNS`, :data:`FORCE_COLUMNS`, :data:`TIME_COLUMN`;
-- :mod:`.instrument`: :func:`load_curve`, CSV or (with the optional afmformats
-  package) JPK and other instrument files;
+- :mod:`.optics11`: :func:`load_chiaro_txt`, Optics11 Chiaro text exports;
+- :mod:`.instrument`: :func:`load_curves` (every curve of a file, e.g. a force
+  map) and :func:`load_curve`: CSV, Chiaro ``.txt`` or (with the optional
+  afmformats package) JPK and other instrument files;
 - :mod:`.segments`: :class:`Segment`, :func:`find_segments`;
 - :mod:`.contact`: :class:`Baseline`, :func:`estimate_baseline`,
   :class:`ContactPoint`, :func:`find_contact_point`,
-  :func:`estimate_contact_point`.
+  :func:`estimate_contact_point`;
+- :mod:`.preparation`: :func:`prepare` and :class:`PreparedCurve`, the one way a
+  recorded curve is made ready for fits and diagnosis (segments, baseline, contact
+  point, window, binning, radius, scale checks).
 """
 
 from ._errors import MeasurementError
@@ -46,10 +51,17 @@ from .contact import (
 )
 from .core import Measurement, measurement_from_arrays
 from .csv_io import DEPTH_COLUMNS, FORCE_COLUMNS, TIME_COLUMN, load_csv, save_csv
-from .instrument import AFMFORMATS_MISSING, load_curve
+from .instrument import AFMFORMATS_MISSING, load_curve, load_curves
+from .optics11 import load_chiaro_txt
 from .segments import Segment, find_segments
+from .preparation import CONTACT_MODES, SEGMENTS, SKIN_RADIUS_MM, PreparedCurve, prepare
 
 __all__ = [
+    "CONTACT_MODES",
+    "SEGMENTS",
+    "SKIN_RADIUS_MM",
+    "PreparedCurve",
+    "prepare",
     "AFMFORMATS_MISSING",
     "DEPTH_COLUMNS",
     "FORCE_COLUMNS",
@@ -63,8 +75,10 @@ __all__ = [
     "estimate_contact_point",
     "find_contact_point",
     "find_segments",
+    "load_chiaro_txt",
     "load_csv",
     "load_curve",
+    "load_curves",
     "measurement_from_arrays",
     "save_csv",
 ]

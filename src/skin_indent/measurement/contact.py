@@ -9,10 +9,10 @@ depth. Both only report: the curve is changed only by an explicit
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ._errors import MeasurementError
 from .core import Measurement
@@ -197,20 +197,40 @@ def _hertz_sse(depth, force, d0, free_offset) -> float:
     return sse - sxy * sxy / sxx if sxx > 0 and sxy > 0 else sse
 
 
+_INV_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def _golden_section(f, a: float, b: float, xatol: float) -> tuple[float, float]:
+    """``(x, f(x))`` at the minimum of a unimodal ``f`` on [a, b], to ``xatol``.
+
+    Golden-section search: ~20 evaluations for the two grid steps that
+    :func:`_fit_contact` refines to 1e-6 of its range. numpy only, so that
+    reading and preparing a curve does not import scipy.optimize (0.3 s).
+    """
+    c, d = b - _INV_GOLDEN * (b - a), a + _INV_GOLDEN * (b - a)
+    fc, fd = f(c), f(d)
+    while b - a > xatol:
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - _INV_GOLDEN * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + _INV_GOLDEN * (b - a)
+            fd = f(d)
+    return (c, fc) if fc <= fd else (d, fd)
+
+
 def _fit_contact(depth, force, lo, hi, free_offset) -> float:
-    """Contact depth in [lo, hi] that minimises the Hertz-shaped SSE (grid, then Brent)."""
+    """Contact depth in [lo, hi] that minimises the Hertz-shaped SSE (grid, then golden section)."""
     if not hi > lo:
         return float(lo)
     grid = np.linspace(lo, hi, 201)
     sse = [_hertz_sse(depth, force, d0, free_offset) for d0 in grid]
     k = int(np.argmin(sse))
-    res = minimize_scalar(
-        lambda d0: _hertz_sse(depth, force, d0, free_offset),
-        bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]),
-        method="bounded",
-        options={"xatol": (hi - lo) * 1e-6},
-    )
-    return float(res.x) if res.fun <= sse[k] else float(grid[k])
+    x, fx = _golden_section(lambda d0: _hertz_sse(depth, force, d0, free_offset),
+                            float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)]), (hi - lo) * 1e-6)
+    return float(x) if fx <= sse[k] else float(grid[k])
 
 
 def _first_part_end(force, base_level) -> int | None:

@@ -4,6 +4,10 @@
 :data:`DEPTH_COLUMNS` and :data:`FORCE_COLUMNS` (plus the optional
 :data:`TIME_COLUMN`) and converts them to mm and mN; :func:`save_csv` writes
 ``time_s,depth_mm,force_mN`` atomically, with full float64 precision.
+
+Lines starting with ``#`` are comments, before the header and between data rows;
+a ``# radius_um: 18.64``-style comment (see :func:`parse_radius_comment`) gives the
+indenter radius.
 """
 
 from __future__ import annotations
@@ -21,7 +25,8 @@ from .._atomic import atomic_write
 from ._errors import MeasurementError, _quote
 from .core import _MIN_POINTS, Measurement
 
-__all__ = ["DEPTH_COLUMNS", "FORCE_COLUMNS", "TIME_COLUMN", "load_csv", "save_csv"]
+__all__ = ["DEPTH_COLUMNS", "FORCE_COLUMNS", "TIME_COLUMN", "load_csv", "parse_radius_comment",
+           "save_csv"]
 
 #: Accepted depth column names and the factor that converts each to mm.
 DEPTH_COLUMNS = {"depth_mm": 1.0, "depth_um": 1e-3, "depth_m": 1e3}
@@ -34,6 +39,68 @@ _DELIMITERS = (",", ";", "\t")  # tried in this order on the header line
 _NUMBER = re.compile(
     r"[+-]?(?:(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?|nan|inf|infinity)", re.IGNORECASE
 )
+
+#: Length units a radius comment may use, and the factor to mm.
+RADIUS_UNITS = {"nm": 1e-6, "um": 1e-3, "\u00b5m": 1e-3, "\u03bcm": 1e-3, "micron": 1e-3,
+                "microns": 1e-3, "mm": 1.0, "m": 1e3}
+_UNIT = r"(?:nm|um|\u00b5m|\u03bcm|microns?|mm|m)"
+# "# radius_um: 18.64", "# tip radius (um)\t27.5", "# Sphere radius = 18.64 um", ...
+_RADIUS_KEY = re.compile(
+    r"\s*(?:(?:tip|sphere|indenter|probe|bead)[ _-]?)?radius"
+    rf"(?:[ _]?\(?\s*(?P<unit>{_UNIT})(?![a-z])\s*\)?)?\s*",
+    re.IGNORECASE)
+_RADIUS_VALUE = re.compile(rf"\s*(?P<value>[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)"
+                           rf"\s*(?P<unit>{_UNIT})?\s*$", re.IGNORECASE)
+
+
+def parse_radius_comment(line: str) -> float | None:
+    """The indenter radius (mm) a metadata line states, or None if it states none.
+
+    Parameters
+    ----------
+    line : str
+        A comment line such as ``# radius_um: 18.64``, ``# tip radius (um)\t27.5``,
+        ``# Sphere radius = 0.5 mm`` or ``# radius: 18.64 um`` (the leading ``#`` is
+        optional). The unit (nm, um, µm, micron, mm, m) goes in the name or after the
+        number; names are ``radius`` with an optional ``tip``, ``sphere``,
+        ``indenter``, ``probe`` or ``bead`` in front, in any case.
+
+    Returns
+    -------
+    float or None
+        The radius in mm; None if the line is not a radius statement (any other
+        comment).
+
+    Raises
+    ------
+    ValueError
+        One line, if the line names a radius but its value is not a positive number
+        with exactly one unit.
+    """
+    text = line.strip()
+    text = text[1:] if text.startswith("#") else text
+    key = _RADIUS_KEY.match(text)
+    if key is None:
+        return None
+    rest, declared = text[key.end():], False
+    if rest[:1] in (":", "=", ","):
+        rest, declared = rest[1:], True
+    elif text[key.end() - 1 : key.end()] == "\t":
+        declared = True
+    value = _RADIUS_VALUE.match(rest)
+    if value is None:
+        if declared:
+            raise ValueError(f"radius {_quote(rest.strip())} is not a number with a unit")
+        return None  # prose that happens to start with "radius"
+    units = {u.lower().replace("\u03bc", "\u00b5") for u in (key["unit"], value["unit"]) if u}
+    if not units:
+        raise ValueError("radius without a unit (write e.g. '# radius_um: 18.64')")
+    if len(units) > 1:
+        raise ValueError(f"radius with two units ({', '.join(sorted(units))})")
+    radius = float(value["value"]) * RADIUS_UNITS[units.pop()]
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"radius must be positive, got {value['value']}")
+    return radius
 
 
 def _read_text(path: Path) -> str:
@@ -131,12 +198,16 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
     path : str or os.PathLike
         The CSV file (UTF-8, a byte-order mark is allowed).
     radius_mm : float, optional
-        Indenter radius (mm) to store in the measurement.
+        Indenter radius (mm) to store in the measurement. It overrides a radius
+        comment in the file.
 
     Returns
     -------
     Measurement
-        Depth in mm, force in mN, time in s (if present).
+        Depth in mm, force in mN, time in s (if present); ``radius_mm`` from the
+        argument, else from a radius comment, else None. ``columns["comments"]``
+        holds the comment lines (without ``#``), ``columns["radius_mm"]`` where
+        the radius came from.
 
     Raises
     ------
@@ -145,7 +216,9 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
         or NUL bytes, an empty file, a header without data rows, a missing or
         ambiguous depth/force column (listing the columns found), a row with
         the wrong number of fields, an empty, non-numeric or non-finite cell
-        (line and column named), fewer than 3 rows, or a decreasing time.
+        (line and column named), fewer than 3 rows, a decreasing time, or a
+        radius comment without a positive number and a unit, or two radius
+        comments that disagree.
 
     Notes
     -----
@@ -158,26 +231,52 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
       into names including a depth and a force column is used for the whole
       file. The choice is driven by the column names, so data cannot fool it.
       Numbers need a ``.`` decimal point (a decimal comma is reported).
-    - Blank lines are skipped; every other line is a data row: none is dropped.
+    - Blank lines are skipped, and so are comment lines, whose first non-blank
+      character is ``#`` (before the header and between data rows); every other
+      line is a data row: none is dropped. Line numbers in messages count every
+      line of the file.
+    - A comment such as ``# radius_um: 18.64``, ``# tip radius (um): 18.64`` or
+      ``# radius: 0.5 mm`` sets the indenter radius (see
+      :func:`parse_radius_comment`).
     """
     path = Path(os.fspath(path))
     name = path.name or str(path)
     lines = io.StringIO(_read_text(path), newline="")
-    header, header_no = "", 0
-    for header_no, line in enumerate(lines, start=1):
+    comments, radii = [], {}
+    current = [0]  # the number of the last line handed to the CSV reader
+
+    def data_lines():
+        for line_no, line in enumerate(lines, start=1):
+            text = line.strip()
+            if text.startswith("#"):
+                comments.append(text[1:].strip())
+                try:
+                    radius = parse_radius_comment(text)
+                except ValueError as err:
+                    raise MeasurementError(f"{name}: line {line_no}: {err}") from None
+                if radius is not None:
+                    radii[line_no] = radius
+                continue
+            current[0] = line_no
+            yield line
+
+    feed = data_lines()
+    header = ""
+    for line in feed:
         if line.strip():
             header = line.rstrip("\r\n")
             break
     if not header:
-        raise MeasurementError(f"{name}: file is empty")
+        only = " (only comment lines)" if comments else ""
+        raise MeasurementError(f"{name}: file is empty{only}")
     delimiter, n_fields, wanted = _choose_columns(name, header)
 
     values = {key: [] for key in wanted}
     line_numbers = []
-    reader = csv.reader(lines, delimiter=delimiter)
+    reader = csv.reader(feed, delimiter=delimiter)
     try:
         for row in reader:
-            line_no = header_no + reader.line_num
+            line_no = current[0]
             if not row or (len(row) == 1 and not row[0].strip()):
                 continue  # a blank line
             if len(row) != n_fields:
@@ -191,7 +290,7 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
                 values[key].append(_parse_cell(row[col], where) * factor)
             line_numbers.append(line_no)
     except csv.Error as err:
-        line_no = header_no + reader.line_num
+        line_no = current[0]
         raise MeasurementError(f"{name}: line {line_no}: malformed CSV ({err})") from None
 
     n_rows = len(line_numbers)
@@ -208,6 +307,18 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
         )
     columns = {key: {"column": original, "factor": factor}
                for key, (_, original, factor) in wanted.items()}
+    if len(set(radii.values())) > 1:
+        stated = ", ".join(f"line {n}: {r!r} mm" for n, r in radii.items())
+        raise MeasurementError(f"{name}: radius comments disagree ({stated})")
+    if comments:
+        columns["comments"] = comments
+    if radius_mm is not None:
+        columns["radius_mm"] = {"from": "argument"}
+        if radii:
+            columns["radius_mm"]["in_file_mm"] = next(iter(radii.values()))
+    elif radii:
+        line_no, radius_mm = next(iter(radii.items()))
+        columns["radius_mm"] = {"from": f"comment, line {line_no}"}
     return Measurement(values["depth_mm"], values["force_mN"], values.get("time_s"), name,
                        columns, radius_mm)
 

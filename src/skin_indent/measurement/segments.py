@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from ._errors import MeasurementError
 
@@ -24,6 +23,10 @@ __all__ = ["Segment", "find_segments"]
 # the approach speed belongs to a hold; the median window is this fraction of n.
 _HOLD_SPEED_FRACTION = 0.15
 _SPEED_WINDOW_FRACTION = 0.01
+
+# Up to this many window values (samples x window) the moving median is computed with
+# numpy, faster than importing scipy.ndimage (0.2-0.5 s); longer curves use scipy.
+_NUMPY_MEDIAN_MAX = 100_000
 
 _KINDS = ("approach", "hold", "retract")
 _LABEL = {1: "approach", 0: "hold", -1: "retract"}
@@ -57,6 +60,20 @@ class Segment:
     def n_points(self) -> int:
         """Number of rows."""
         return self.stop - self.start
+
+
+def _moving_median(x: np.ndarray, window: int) -> np.ndarray:
+    """Moving median over an odd ``window``, the ends extended by their values.
+
+    The same numbers as ``scipy.ndimage.median_filter(x, size=window, mode="nearest")``,
+    which is used for long curves; short ones (skin curves: 100 samples) need no scipy.
+    """
+    if x.size * window > _NUMPY_MEDIAN_MAX:
+        from scipy.ndimage import median_filter
+
+        return median_filter(x, size=window, mode="nearest")
+    padded = np.pad(x, window // 2, mode="edge")
+    return np.median(np.lib.stride_tricks.sliding_window_view(padded, window), axis=-1)
 
 
 def _runs(labels: np.ndarray) -> list[list[int]]:
@@ -144,7 +161,7 @@ def find_segments(measurement: Measurement) -> list[Segment]:
     timed = time is not None and np.all(np.diff(time) > 0)
     speed = np.gradient(depth, time) if timed else np.gradient(depth)
     window = max(5, int(n * _SPEED_WINDOW_FRACTION) | 1)
-    smooth = median_filter(speed, size=window, mode="nearest")
+    smooth = _moving_median(speed, window)
     positive = smooth[smooth > 0]
     v_ref = np.percentile(positive if positive.size >= min(window, n) else np.abs(smooth), 90)
     if not v_ref > 0:

@@ -29,7 +29,8 @@ from scipy import sparse
 from skfem import Basis, ElementTriP2, ElementVector
 
 from .layers import LayeredSample
-from .materials import Material
+from .materials import Material, NeoHooke
+from .materials.neo_hooke import PointwiseNeoHooke
 
 #: (row, column) of the five non-zero components of F, order used throughout.
 F_COMPONENTS = ((0, 0), (0, 1), (1, 0), (1, 1), (2, 2))
@@ -89,7 +90,7 @@ def _selector(ix: np.ndarray, shape):
     if ix.dtype == bool:
         if ix.shape != shape:
             raise ValueError(f"a quadrature-point mask must have shape {shape}, got {ix.shape}")
-        return ix
+        return slice(None) if ix.all() else ix
     if ix.size and np.array_equal(ix, np.arange(ix[0], ix[0] + ix.size)):
         return slice(int(ix[0]), int(ix[0] + ix.size))
     return ix
@@ -147,9 +148,23 @@ class AxisymmetricSolid:
             else:
                 G[2, k] = grad[0]
                 G[3, k] = grad[1]
+        # local dofs reordered: all u_r dofs first, then all u_z dofs (contiguous blocks of G)
+        order = np.r_[np.flatnonzero(np.any(G[[0, 1, 4]] != 0, axis=(0, 2, 3))),
+                      np.flatnonzero(np.any(G[[2, 3]] != 0, axis=(0, 2, 3)))]
+        if order.size != nloc or np.any(G[[2, 3]][:, order[:nloc // 2]]) or np.any(G[[0, 1, 4]][:, order[nloc // 2:]]):
+            raise ValueError("each local dof must belong to one displacement component")
+        G = G[:, order]
+        self.element_dofs = self.element_dofs[order]
+        self._nr = nloc // 2
         self.G = G
-        # element-major copy for batched matrix products: (nel, 5*nq, nloc)
+        # element-major copies for batched matrix products: (nel, 5*nq, nloc) and its transpose
         self._Ge = np.ascontiguousarray(G.transpose(2, 0, 3, 1).reshape(nel, 5 * nq, nloc))
+        self._GeT = np.ascontiguousarray(self._Ge.transpose(0, 2, 1))
+        # the non-zero blocks of G: components (0, 1, 4) act on u_r dofs, (2, 3) on u_z dofs
+        nr = self._nr
+        self._G_r = np.ascontiguousarray(G[[0, 1, 4], :nr].transpose(0, 2, 3, 1))  # (3, nel, nq, nr)
+        self._G_z = np.ascontiguousarray(G[[2, 3], nr:].transpose(0, 2, 3, 1))  # (2, nel, nq, nz)
+        self._cache = None  # (u, H) of the last evaluation, reused by tangent()
         if regions is None:
             if material is None:
                 raise ValueError("give a material or regions")
@@ -162,6 +177,18 @@ class AxisymmetricSolid:
         self.states = [None if m.path_independent else m.initial_state(self._selected_shape(sel))
                        for sel, m in self.regions]
         self._active = [m for _, m in self.regions]
+        self._merged = self._merge_neo_hooke_regions()
+
+    def _merge_neo_hooke_regions(self):
+        """One :class:`PointwiseNeoHooke` for a body made only of neo-Hookean regions (layers)
+        covering every quadrature point once, else None."""
+        if len(self.regions) < 2 or not all(type(m) is NeoHooke for _, m in self.regions):
+            return None
+        mu, lam, count = np.zeros(self.r.shape), np.zeros(self.r.shape), np.zeros(self.r.shape, dtype=int)
+        for ix, m in self.regions:
+            mu[ix], lam[ix] = m.lame
+            count[ix] += 1
+        return PointwiseNeoHooke(mu, lam) if np.all(count == 1) else None
 
     def _selected_shape(self, sel):
         return np.zeros(self.r.shape)[sel].shape
@@ -185,8 +212,9 @@ class AxisymmetricSolid:
 
     def displacement_gradient(self, u: np.ndarray) -> np.ndarray:
         """H = F - I (3, 3, nel, nq) from the nodal displacement vector ``u`` (mm)."""
-        ue = u[self.element_dofs]  # (nloc, nel)
-        comps = np.einsum("ckeq,ke->ceq", self.G, ue)
+        nel, nq = self.r.shape
+        ue = u[self.element_dofs].T  # (nel, nloc)
+        comps = np.matmul(self._Ge, ue[:, :, None]).reshape(nel, 5, nq).transpose(1, 0, 2)  # (5, nel, nq)
         H = np.zeros((3, 3) + comps.shape[1:])
         for c, (i, j) in enumerate(F_COMPONENTS):
             H[i, j] = comps[c]
@@ -194,6 +222,11 @@ class AxisymmetricSolid:
 
     def _material_loop(self, F, want_tangent):
         """Evaluate each region's material on its elements."""
+        if self._merged is not None:
+            if want_tangent:
+                return self._merged.tangent_components(F, F_COMPONENTS)
+            P = self._merged.stress(F)
+            return np.stack([P[i, j] for i, j in F_COMPONENTS]), None
         P5 = np.empty((5,) + F.shape[2:])
         A55 = np.empty((5, 5) + F.shape[2:]) if want_tangent else None
         for (ix, _), mat in zip(self.regions, self._active):
@@ -224,22 +257,49 @@ class AxisymmetricSolid:
         f : ndarray, shape (n_dofs,)
         Ke : ndarray, shape (nel, nloc, nloc), or None
         """
-        F = self.displacement_gradient(u)
-        P5, A55 = self._material_loop(F, tangent)
-        fe = np.einsum("ckeq,ceq,eq->ke", self.G, P5, self.dV)
-        f = np.bincount(self.element_dofs.ravel(), weights=fe.ravel(), minlength=self.n_dofs)
+        H = self.displacement_gradient(u)
+        self._cache = (u.copy(), H)
+        P5, A55 = self._material_loop(H, tangent)
+        nel, nq = self.r.shape
+        # f_e = G_e^T (P dV): one (nloc x 5nq) @ (5nq) product per element
+        fe = np.matmul(self._GeT, (P5 * self.dV).transpose(1, 0, 2).reshape(nel, 5 * nq, 1))[:, :, 0]
+        dofs = self.element_dofs.T.ravel()
+        f = np.bincount(dofs, weights=fe.ravel(), minlength=self.n_dofs)
         # gross internal force: the scale of the round-off in f (large locked-in stresses
         # with a small net force, e.g. a viscoelastic body losing contact on unloading)
-        self.gross_force = float(np.linalg.norm(np.bincount(self.element_dofs.ravel(), weights=np.abs(fe).ravel(),
+        self.gross_force = float(np.linalg.norm(np.bincount(dofs, weights=np.abs(fe).ravel(),
                                                             minlength=self.n_dofs)))
         if not tangent:
             return f, None
-        # K_e[k, l] = sum_q sum_cd G[c, k] A[c, d] G[d, l] dV: first B = A G dV per
-        # quadrature point, then one (nloc x 5nq) @ (5nq x nloc) product per element.
+        return f, self._element_tangents(A55)
+
+    def tangent(self, u: np.ndarray) -> np.ndarray:
+        """Element tangents (nel, nloc, nloc) at ``u``, reusing the kinematics of the last
+        :meth:`forces` call when it was at the same ``u`` (the usual Newton sequence:
+        residual first, tangent only when the iteration goes on)."""
+        if self._cache is not None and np.array_equal(self._cache[0], u):
+            H = self._cache[1]
+        else:
+            H = self.displacement_gradient(u)
+        return self._element_tangents(self._material_loop(H, True)[1])
+
+    def _element_tangents(self, A55: np.ndarray) -> np.ndarray:
+        """K_e[k, l] = sum_q sum_cd G[c, k] A[c, d] G[d, l] dV, from the tangent components (5, 5, nel, nq)."""
+        # B = A G dV per quadrature point, using the block structure of G (components
+        # 0, 1, 4 act on u_r dofs only, 2, 3 on u_z dofs only), then one
+        # (nloc x 5nq) @ (5nq x nloc) product per element.
         nel, nq = self.r.shape
-        B = np.einsum("cdeq,dleq->ecql", A55 * self.dV, self.G, optimize=True).reshape(nel, 5 * nq, -1)
-        Ke = np.matmul(self._Ge.transpose(0, 2, 1), B)
-        return f, Ke
+        AdV = A55 * self.dV
+        B = np.empty((nel, 5, nq, self._GeT.shape[1]))
+        for c in range(5):
+            Ar = AdV[c, 0][..., None] * self._G_r[0]
+            Ar += AdV[c, 1][..., None] * self._G_r[1]
+            Ar += AdV[c, 4][..., None] * self._G_r[2]
+            Az = AdV[c, 2][..., None] * self._G_z[0]
+            Az += AdV[c, 3][..., None] * self._G_z[1]
+            B[:, c, :, :self._nr] = Ar
+            B[:, c, :, self._nr:] = Az
+        return np.matmul(self._GeT, B.reshape(nel, 5 * nq, -1))
 
     def stress_fields(self, u: np.ndarray) -> dict[str, np.ndarray]:
         """Element averages of the Cauchy stress (kPa) and von Mises stress.

@@ -26,15 +26,32 @@ class TangentSolver:
     symmetric : bool
         False for tangents that may be non-symmetric: then GMRES (restarted
         after ``max_cg`` iterations, one cycle) and an LU with partial pivoting.
+    stale_after : int, optional
+        When a preconditioned solve needed more than this many applications of the
+        stored factorisation, the next solve refactorises at once (default None:
+        only when the Krylov method fails within ``max_cg`` iterations).
+
+    Attributes
+    ----------
+    factorisations, cg_solves, preconditioner_applications : int
+        Counters: LU factorisations, successful preconditioned Krylov solves, and
+        triangular solves with a stored factorisation inside them.
     """
 
-    def __init__(self, rtol: float = 1e-10, max_cg: int = 12, symmetric: bool = True):
+    def __init__(self, rtol: float = 1e-10, max_cg: int = 12, symmetric: bool = True, stale_after: int | None = None):
         self.rtol = rtol
         self.max_cg = max_cg
         self.symmetric = symmetric
+        self.stale_after = stale_after
+        self._stale = False
         self._lu = None
         self.factorisations = 0
         self.cg_solves = 0
+        self.preconditioner_applications = 0
+
+    def _apply_lu(self, b):
+        self.preconditioner_applications += 1
+        return self._lu.solve(b)
 
     def _factorise(self, K):
         if not self.symmetric:
@@ -51,8 +68,9 @@ class TangentSolver:
         ``rtol`` overrides the CG tolerance for this solve (an inexact Newton
         method needs only a loose solve while its own residual is large).
         """
-        if self._lu is not None:
-            M = LinearOperator(K.shape, matvec=self._lu.solve, dtype=float)
+        if self._lu is not None and not self._stale:
+            M = LinearOperator(K.shape, matvec=self._apply_lu, dtype=float)
+            before = self.preconditioner_applications
             if self.symmetric:
                 x, info = cg(K, b, rtol=self.rtol if rtol is None else rtol, atol=0.0, maxiter=self.max_cg, M=M)
             else:
@@ -60,6 +78,10 @@ class TangentSolver:
                                 maxiter=1, M=M)
             if info == 0 and np.all(np.isfinite(x)):
                 self.cg_solves += 1
+                # a slow solve: the stored factorisation has aged, replace it at the next solve
+                slow = self.preconditioner_applications - before
+                self._stale = self.stale_after is not None and slow > self.stale_after
                 return x
         self._factorise(K)
+        self._stale = False
         return self._lu.solve(b)

@@ -243,3 +243,16 @@ def load_mesh(path: str | Path) -> IndentationMesh:
         s0,
         L,
     )
+
+
+def refined_uniformly(imesh: IndentationMesh, levels: int = 1) -> IndentationMesh:
+    """``imesh`` with every triangle split in four ``levels`` times (scikit-fem's ``refined``).
+
+    The refined mesh keeps the named boundaries (axis, top, bottom, outer); the far
+    field is refined too, so it is a mesh-convergence check, not a design.
+    """
+    mesh = imesh.mesh.refined(int(levels))
+    lz = -float(mesh.p[1].min())
+    return IndentationMesh(_with_named_boundaries(mesh, imesh.extent_mm, lz),
+                           f"{imesh.name.split(' (')[0]}, refined uniformly {int(levels)}x",
+                           imesh.contact_radius_mm, imesh.surface_size_mm / 2**int(levels), imesh.extent_mm)

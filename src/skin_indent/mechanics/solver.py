@@ -2,19 +2,27 @@
 
 :class:`IndentationProblem` joins the body (:class:`~.axisymmetric.AxisymmetricSolid`),
 the contact (:class:`~.contact.SphereContact`) and the boundary conditions, and
-:meth:`IndentationProblem.solve` pushes the sphere through a list of depths. Each
-increment starts from a linear extrapolation of the two previous converged states
-(most increments then need one or two Newton iterations), solves with the
-consistent tangent, shortens a step that overshoots the minimum of the potential
-along the Newton direction (a line search on its directional derivative), and halves the increment when Newton fails. When even
-small increments fail, :class:`ConvergenceError` says where and why.
+:meth:`IndentationProblem.solve` pushes the sphere through a list of depths. The
+first increment from the undeformed body starts from Hertz's shape
+(:func:`~.predictor.hertz_start`, frictionless contact), the others from the
+self-similar image of the previous states (geometric depths) or a linear
+extrapolation. Newton's method evaluates the residual first and the consistent
+tangent only when it goes on; close to the solution (relative residual below
+``modified_below`` and falling tenfold per iteration) it keeps the last tangent and
+its factorisation (modified Newton). It shortens a step that overshoots the minimum
+of the potential along the Newton direction (a line search on its directional
+derivative), and halves the increment when Newton fails. When even small
+increments fail, :class:`ConvergenceError` says where and why. On the default
+mesh a 12-increment curve takes ~2.8 Newton iterations per increment, ~10 LU
+factorisations and ~25 solves by conjugate gradients preconditioned with an
+earlier factorisation (:class:`~.linear.TangentSolver`).
 
-With friction or adhesion (never for the frictionless, non-adhesive contact, whose
-iteration is unchanged), a reversal of the sphere (first unloading step) is
-predicted along the last increment backwards instead of from the deepest state, a
-trial step whose residual is not finite (inverted elements, typically at first
-touch with adhesion) is halved instead of ending the increment, and the
-non-symmetric frictional tangents are solved by :class:`_FrictionalTangentSolver`.
+With friction or adhesion (never for the frictionless, non-adhesive contact), a
+reversal of the sphere (first unloading step) is predicted along the last increment
+backwards instead of from the deepest state, a trial step whose residual is not
+finite (inverted elements, typically at first touch with adhesion) is halved instead
+of ending the increment, and the non-symmetric frictional tangents are solved by
+:class:`_FrictionalTangentSolver`.
 """
 
 from __future__ import annotations
@@ -30,7 +38,7 @@ from .axisymmetric import AxisymmetricSolid, SparsityPattern
 from .contact import ContactLaw, SphereContact, SphericalIndenter
 from .linear import TangentSolver
 from .materials import Material
-from .predictor import SimilarityPredictor
+from .predictor import SimilarityPredictor, hertz_start
 from .mesh import IndentationMesh
 
 
@@ -107,6 +115,15 @@ class NewtonReport:
         Largest penetration of the surface into the sphere relative to the depth.
     wall_time_s : float
         Wall time of the solve, s.
+    tangents : int
+        Tangent matrices evaluated and assembled.
+    modified_steps : int
+        Newton iterations that reused the previous iterate's tangent (modified Newton,
+        near convergence).
+    factorisations : int
+        Sparse LU factorisations of a tangent.
+    preconditioned_solves : int
+        Linear solves done by a Krylov method preconditioned with an earlier factorisation.
     """
 
     increments: int = 0
@@ -116,6 +133,10 @@ class NewtonReport:
     line_search_backtracks: int = 0
     max_penetration_ratio: float = 0.0
     wall_time_s: float = 0.0
+    tangents: int = 0
+    modified_steps: int = 0
+    factorisations: int = 0
+    preconditioned_solves: int = 0
 
     @property
     def total_iterations(self) -> int:
@@ -129,8 +150,8 @@ class NewtonReport:
         return (
             f"{self.increments} increments, {self.total_iterations} Newton iterations "
             f"({self.mean_iterations:.2f} per increment), {self.step_cuts} step cuts, "
-            f"{self.line_search_backtracks} backtracks, max penetration {self.max_penetration_ratio:.2e} x depth, "
-            f"{self.wall_time_s:.2f} s"
+            f"{self.line_search_backtracks} backtracks, {self.factorisations} factorisations, "
+            f"max penetration {self.max_penetration_ratio:.2e} x depth, {self.wall_time_s:.2f} s"
         )
 
 
@@ -158,6 +179,10 @@ class IndentationProblem:
         Newton iterations allowed per increment before it is cut.
     max_cuts : int
         How often one increment may be halved before giving up.
+    modified_below : float
+        Relative residual below which (while it falls tenfold per iteration) Newton
+        reuses the last tangent and its factorisation instead of assembling a new one;
+        0 disables it. The converged state meets the same tolerance either way.
     bottom : {"clamped", "rigid-base"}
         Bottom boundary condition (both fix u_r and u_z on z = -L).
     contact : ContactLaw, optional
@@ -167,7 +192,8 @@ class IndentationProblem:
 
     def __init__(self, imesh: IndentationMesh, material: Material | None, indenter: SphericalIndenter,
                  max_depth_mm: float, penalty: float = 1.2e4, regions=None, rtol: float = 1e-6,
-                 max_iterations: int = 25, max_cuts: int = 8, contact: ContactLaw | None = None):
+                 max_iterations: int = 25, max_cuts: int = 8, contact: ContactLaw | None = None,
+                 modified_below: float = 1e-3):
         self.imesh = imesh
         self.indenter = indenter
         self.solid = AxisymmetricSolid(imesh.mesh, material, regions=regions)
@@ -188,9 +214,16 @@ class IndentationProblem:
         self.rtol = rtol
         self.linear_solver = (TangentSolver() if self.contact.symmetric_tangent else _FrictionalTangentSolver())
         self.max_iterations = max_iterations
+        #: below this relative residual (and while it drops 10x per iteration) Newton
+        #: keeps the last tangent and its factorisation instead of assembling a new one
+        self.modified_below = modified_below
         self.max_cuts = max_cuts
         # frictionless, non-adhesive contact: exactly the original iteration
         self._plain_contact = not (self.contact.law.frictional or self.contact.law.adhesive)
+        # the u_z dof of the surface point on the axis (the tip of the indentation)
+        top_z = b.get_dofs("top").all("u^2")
+        on_axis = top_z[np.isclose(b.doflocs[0, top_z], 0.0) & np.isclose(b.doflocs[1, top_z], 0.0)]
+        self.axis_top_dof = int(on_axis[0]) if on_axis.size else None
 
     @property
     def n_dofs(self) -> int:
@@ -204,9 +237,22 @@ class IndentationProblem:
             f_c, Kc, force = self.contact.forces(u, depth, tangent)
         return f_int, Ke, f_c, Kc, force
 
+    def _residual(self, u, depth):
+        """Internal and contact force vectors (mN) and the force on the sphere, without tangents."""
+        f_int, _, f_c, _, force = self._evaluate(u, depth, tangent=False)
+        return f_int, f_c, force
+
+    def _tangent(self, u, depth, contact_tangent=True):
+        """Assembled tangent over the free dofs at ``u`` (after :meth:`_residual` at the same ``u``:
+        the solid reuses its kinematics)."""
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            Ke = self.solid.tangent(u)
+            Kc = self.contact.forces(u, depth, tangent=contact_tangent)[1]
+        return self.pattern.assemble([(self.solid.element_dofs, Ke), (self.contact.element_dofs, Kc)])
+
     def _directional(self, u, du, alpha, depth):
         """Directional derivative of the potential, du . r(u + alpha du), on the free dofs."""
-        f_int, _, f_c, _, _ = self._evaluate(u + alpha * du, depth, tangent=False)
+        f_int, f_c, _ = self._residual(u + alpha * du, depth)
         return float((f_int + f_c)[self.free] @ du[self.free])
 
     def _line_search(self, u, du, g0, g1, depth, report):
@@ -237,20 +283,30 @@ class IndentationProblem:
         return alpha
 
     def _newton(self, u: np.ndarray, depth: float, report: NewtonReport):
-        """Newton iterations at fixed depth from the predictor ``u`` (modified in place)."""
+        """Newton iterations at fixed depth from the predictor ``u`` (modified in place).
+
+        Residuals are evaluated first and the tangent only when the iteration goes
+        on (no tangent at converged states or at rejected trial steps).
+        """
         free = self.free
-        f_int, Ke, f_c, Kc, force = self._evaluate(u, depth)
-        rel = np.inf
+        f_int, f_c, force = self._residual(u, depth)
+        rel, K = np.inf, None
         for it in range(self.max_iterations + 1):
             r = (f_int + f_c)[free]
             ref = max(np.linalg.norm(f_c[free]), np.linalg.norm(f_int[free]), self.force_floor,
                       1e-3 * self.solid.gross_force)
-            rel = np.linalg.norm(r) / ref
+            rel_before, rel = rel, np.linalg.norm(r) / ref
             if rel <= self.rtol:
                 return True, it, rel, force
             if it == self.max_iterations or not np.isfinite(rel):
                 break
-            K = self.pattern.assemble([(self.solid.element_dofs, Ke), (self.contact.element_dofs, Kc)])
+            if K is not None and rel < self.modified_below and rel < 0.1 * rel_before:
+                # close to the solution and converging: keep the tangent of the last
+                # iterate and its factorisation (a modified-Newton step, no assembly)
+                report.modified_steps += 1
+            else:
+                K = self._tangent(u, depth)
+                report.tangents += 1
             try:
                 # inexact Newton: the linear residual need only be small next to Newton's own
                 du_free = self.linear_solver.solve(K, -r, rtol=min(1e-3, max(1e-2 * rel, 1e-10)))
@@ -260,8 +316,7 @@ class IndentationProblem:
             du[free] = du_free
             g0 = float(r @ du_free)
             if not g0 < 0 and self.contact.convex_fallback:  # adhesion: retry with a positive-definite tangent
-                Kc_convex = self.contact.forces(u, depth, tangent="convex")[1]
-                K = self.pattern.assemble([(self.solid.element_dofs, Ke), (self.contact.element_dofs, Kc_convex)])
+                K = self._tangent(u, depth, contact_tangent="convex")
                 du_free = self.linear_solver.solve(K, -r, rtol=min(1e-3, max(1e-2 * rel, 1e-10)))
                 du[free] = du_free
                 g0 = float(r @ du_free)
@@ -269,7 +324,7 @@ class IndentationProblem:
                 # (a non-symmetric, frictional tangent has no potential to descend: go on)
                 if self.contact.symmetric_tangent or not np.isfinite(g0):
                     break
-            f_int, Ke, f_c, Kc, force = self._evaluate(u + du, depth)
+            f_int, f_c, force = self._residual(u + du, depth)
             g1 = float((f_int + f_c)[free] @ du_free)
             if not self._plain_contact:  # a trial state that inverts elements: shorten the step
                 for _ in range(12):
@@ -278,18 +333,18 @@ class IndentationProblem:
                     du *= 0.5
                     du_free = du[free]
                     report.line_search_backtracks += 1
-                    f_int, Ke, f_c, Kc, force = self._evaluate(u + du, depth)
+                    f_int, f_c, force = self._residual(u + du, depth)
                     g1 = float((f_int + f_c)[free] @ du_free)
             if g0 < 0 and g1 > 0.9 * abs(g0):  # overshoot: by the trapezoid rule the potential did not decrease
                 alpha = self._line_search(u, du, g0, g1, depth, report)
-                f_int, Ke, f_c, Kc, force = self._evaluate(u + alpha * du, depth)
+                f_int, f_c, force = self._residual(u + alpha * du, depth)
                 du *= alpha
             elif not self.contact.symmetric_tangent:  # frictional: halve steps that raise the residual
                 alpha = 1.0
                 while np.linalg.norm((f_int + f_c)[free]) > np.linalg.norm(r) and alpha > 0.02:
                     alpha *= 0.5
                     report.line_search_backtracks += 1
-                    f_int, Ke, f_c, Kc, force = self._evaluate(u + alpha * du, depth)
+                    f_int, f_c, force = self._residual(u + alpha * du, depth)
                 du *= alpha
             u += du
         return False, it, rel, force
@@ -353,6 +408,9 @@ class IndentationProblem:
         times = self._check_times(times_s, depths)
         if predictor not in ("auto", "linear", "similarity"):
             raise ValueError(f"predictor must be 'auto', 'linear' or 'similarity', got {predictor!r}")
+        # frictionless, non-adhesive contact: the first increment from the undeformed
+        # body starts from Hertz's shape (see predictor.hertz_start)
+        start = predictor != "linear" and self._plain_contact and self.axis_top_dof is not None
         similarity = None
         with np.errstate(divide="ignore", invalid="ignore"):
             ratios = depths[1:] / depths[:-1]
@@ -363,6 +421,7 @@ class IndentationProblem:
         if predictor != "linear" and geometric:
             similarity = SimilarityPredictor(self.solid, ratios[0], self.free)
         t0 = time.perf_counter()
+        factorisations0, cg0 = self.linear_solver.factorisations, self.linear_solver.cg_solves
         report = NewtonReport()
         u = np.zeros(self.n_dofs)
         u_prev, h_prev, h_cur, t_cur = None, 0.0, 0.0, times[0]
@@ -372,7 +431,10 @@ class IndentationProblem:
             while True:
                 h_try = h_cur + (target - h_cur) / 2**cuts
                 t_try = t_cur + (times[i + 1] - t_cur) / 2**cuts
-                trial = self._predict(u, u_prev, h_prev, h_cur, h_try, similarity)
+                if start and u_prev is None and h_cur == 0 and h_try > 0 and not np.any(u):
+                    trial = hertz_start(self, h_try)
+                else:
+                    trial = self._predict(u, u_prev, h_prev, h_cur, h_try, similarity)
                 self.solid.begin_step(t_try - t_cur)
                 self.contact.begin_step(t_try - t_cur)
                 ok, its, rel, force = self._newton(trial, h_try, report)
@@ -402,4 +464,6 @@ class IndentationProblem:
             if progress is not None:
                 progress(i)
         report.wall_time_s = time.perf_counter() - t0
+        report.factorisations = self.linear_solver.factorisations - factorisations0
+        report.preconditioned_solves = self.linear_solver.cg_solves - cg0
         return forces, u, report

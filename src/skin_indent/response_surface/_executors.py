@@ -11,13 +11,16 @@ they arrive: a killed worker, or a killed caller, loses only the runs not yet fi
   process that dies (killed, out of memory, a crash in native code) breaks the pool:
   it is restarted and the calls in flight are retried one at a time; a call that kills
   its worker twice when running alone is reported as failed (:class:`WorkerDied`).
+  Each worker uses one BLAS thread (:mod:`skin_indent._threads`: set in its environment
+  when it starts and by its initializer), and this process one while they run.
 * :class:`DaskExecutor`: a ``dask.distributed.Client``, given or connected to a
   scheduler address (``tcp://HOST:PORT``). Dask is optional (``pip install
   'skin_indent[dask]'``) and imported only here. The scheduler reschedules the calls
   of a worker that dies; a call that keeps killing workers comes back as Dask's
   ``KilledWorker``. Every worker needs the same ``skin_indent`` installed. Before the
   first call each worker undoes the nanny's ``MALLOC_TRIM_THRESHOLD_`` (see
-  :func:`tune_malloc`), which would slow the finite-element model ~1.8x.
+  :func:`tune_malloc`), which would slow the finite-element model ~1.8x, and limits its
+  BLAS threads to one (:func:`skin_indent._threads.init_worker`).
 
 :func:`make_executor` picks one from the ``workers``, ``client`` and ``scheduler``
 arguments that :meth:`ResponseSurface.build` takes.
@@ -28,9 +31,9 @@ from __future__ import annotations
 import collections
 import os
 import pickle
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Hashable, Iterable, Iterator
+
+from .._threads import WORKER_THREADS, init_worker, limit_threads, worker_environment
 
 Outcome = tuple  # (tag, value or None, exception or None)
 
@@ -83,8 +86,14 @@ def tune_malloc() -> bool:
 
 
 def _call_tuned(fn, *args):
-    """``fn(*args)`` on a Dask worker, after :func:`tune_malloc`."""
+    """``fn(*args)`` on a Dask worker, after :func:`tune_malloc`, with one BLAS thread (:func:`_call_limited`)."""
     tune_malloc()
+    return _call_limited(fn, *args)
+
+
+def _call_limited(fn, *args):
+    """``fn(*args)`` on a Dask worker, with one BLAS thread (set once per process)."""
+    init_worker(WORKER_THREADS)
     return fn(*args)
 
 
@@ -194,7 +203,10 @@ class LocalProcesses(Executor):
                             "module-level function or a functools.partial of one, or workers=1") from None
 
     def _new_pool(self):
-        self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=self._mp_context)
+        from concurrent.futures import ProcessPoolExecutor  # lazy: multiprocessing is slow to import
+
+        self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=self._mp_context,
+                                         initializer=init_worker, initargs=(WORKER_THREADS,))
         return self._pool
 
     def _drop_pool(self):
@@ -203,6 +215,14 @@ class LocalProcesses(Executor):
             self._pool = None
 
     def imap_unordered(self, fn, tasks):
+        # the workers take the cores: this process waits with one BLAS thread
+        with limit_threads(WORKER_THREADS):
+            yield from self._imap_unordered(fn, tasks)
+
+    def _imap_unordered(self, fn, tasks):
+        from concurrent.futures import FIRST_COMPLETED, wait
+        from concurrent.futures.process import BrokenProcessPool
+
         tasks = iter(tasks)
         queue = collections.deque()  # (tag, args, isolate) to retry after a broken pool
         crashes = collections.Counter()
@@ -238,7 +258,8 @@ class LocalProcesses(Executor):
                     else:
                         break
                     try:
-                        pending[pool.submit(fn, *item[1])] = item
+                        with worker_environment(WORKER_THREADS):  # workers start inside submit
+                            pending[pool.submit(fn, *item[1])] = item
                     except BrokenProcessPool:  # a worker died since the last wait: not this call's doing
                         queue.appendleft(item)
                         break
@@ -368,7 +389,7 @@ class DaskExecutor(Executor):
                     return
                 tag, args = nxt
                 n += 1
-                call = (_call_tuned, fn, *args) if self.malloc_tuning else (fn, *args)
+                call = (_call_tuned if self.malloc_tuning else _call_limited, fn, *args)
                 fut = self.client.submit(*call, key=f"skin_indent-{batch}-{n}", pure=False)
                 pending[fut] = tag
                 ac.add(fut)

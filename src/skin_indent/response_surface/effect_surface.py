@@ -32,7 +32,6 @@ from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
 
 from ._cache import default_cache_dir, default_settings
 from ._executors import Executor
@@ -72,43 +71,30 @@ class EffectAxis:
         return self.coords(self.nodes)
 
 
-def model_parameters(effect_names, axis_values: Mapping[str, float]) -> dict:
-    """Model parameters (``Model.check`` names) of unit-parameter axis values."""
+def model_parameters(effects, axis_values: Mapping[str, float]) -> dict:
+    """Model parameters at E = 1 kPa (``Model.check`` names) of the surface-axis values: each effect says."""
+    from ..effects import effect
+
     out = {}
-    for name, value in axis_values.items():
-        if name == "compliance":
-            out["ratio"] = math.inf if value == 0 else 1.0 / value
-        elif name == "C20_over_E":
-            out["C20_kPa"] = float(value)  # at E = 1 kPa
-        else:
-            out[name] = float(value)
+    for e in (effect(name) for name in effects):
+        out.update(e.unit_values({k: axis_values[k] for k in e.fit_names if k in axis_values}))
     return out
 
 
-def default_axes(effect: str, max_depth_mm: float) -> tuple[EffectAxis, ...]:
-    """The effect axes used by diagnosis (nodes scale with the deepest depth).
+def default_axes(effect_name, max_depth_mm: float) -> tuple[EffectAxis, ...]:
+    """The axes of an elastic effect's surface (nodes scale with the deepest depth): the effect says."""
+    from ..effects import ELASTIC, effect
 
-    ``layer``: thickness 1.5-17 times the deepest depth (log; a layer thinner than
-    ~1.5 depths on a rigid base is squeezed beyond what the FE model solves), and
-    compliance ``1 / ratio`` in [0, 8] (rigid base to an 8x softer half-space), in
-    the coordinate ``log(compliance + 0.1)``: there log F is nearly linear (springs in
-    series), where F itself falls threefold between a rigid base and ratio 8 under a
-    thin layer and a cubic in the compliance rings.
-    ``stiffening``: C20 / E in [0, 10].
-    """
-    if effect == "layer":
-        t = tuple(float(f"{max_depth_mm * k:.4g}") for k in (1.5, 2.5, 4.0, 6.5, 10.5, 17.0))
-        return (EffectAxis("thickness_mm", t, "log"),
-                EffectAxis("compliance", (0.0, 0.12, 0.3, 0.65, 1.4, 3.2, 8.0), "log", 0.1))
-    if effect == "stiffening":
-        return (EffectAxis("C20_over_E", (0.0, 0.3, 0.8, 1.6, 3.0, 5.5, 10.0), "linear"),)
-    raise ValueError(f"no effect surface for {effect!r} (surfaces exist for layer and stiffening)")
+    e = effect(effect_name)
+    if e.stage != ELASTIC:
+        raise ValueError(f"no effect surface for {e.name!r}: it does not act on the elastic response")
+    return tuple(e.surface_axes(max_depth_mm))
 
 
 def model_unit_curve(nu: float, depth_mm, *, effects: tuple, parameters: tuple, radius_mm: float,
                      mesh: str) -> np.ndarray:
     """Force (mN) at E = 1 kPa of ``Model(effects)`` with unit ``parameters`` ((name, value), ...)."""
-    from skin_indent.effects import Model  # lazy: mechanics is heavy
+    from ..effects import Model  # lazy: mechanics is heavy
 
     theta = {"E_kPa": 1.0, "nu": float(nu), **dict(parameters)}
     return Model(tuple(effects), radius_mm).simulate(theta, np.asarray(depth_mm, float), mesh=mesh).force_mN
@@ -283,6 +269,8 @@ class EffectSurface:
         coordinate ``log(0.5 - nu)``: a layer confined by a stiff base stiffens like
         ``1 / (1 - 2 nu)`` towards incompressibility, a straight line there.
         """
+        from scipy.interpolate import make_interp_spline  # lazy: scipy.interpolate is slow to import
+
         h = np.asarray(depth_mm, dtype=float)
         V, positive = self._node_forces(h)
         for a, x in zip(self.axes, unit_values):

@@ -102,3 +102,27 @@ class NeoHooke(Material):
         same = np.arange(len(pairs))
         A[same, same] += mu
         return P, A
+
+
+class PointwiseNeoHooke:
+    """The neo-Hookean law with Lame parameters given per quadrature point.
+
+    Several :class:`NeoHooke` regions of one body (bonded layers) evaluated in one
+    pass instead of one masked copy per region: the formulas of :class:`NeoHooke`
+    broadcast over parameter arrays shaped like the quadrature points.
+
+    Parameters
+    ----------
+    mu, lam : ndarray
+        Lame parameters (kPa) at the quadrature points, shape ``H.shape[2:]``.
+    """
+
+    path_independent = True
+    small_strain = False
+
+    def __init__(self, mu: np.ndarray, lam: np.ndarray):
+        self.lame = (mu, lam)
+
+    stress = NeoHooke.stress
+    _stress = NeoHooke._stress
+    tangent_components = NeoHooke.tangent_components

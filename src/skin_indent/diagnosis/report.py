@@ -1,4 +1,4 @@
-"""Figures and a self-contained HTML page of a :class:`~skin_indent.diagnose.workflow.Diagnosis`.
+"""Figures and a self-contained HTML page of a :class:`~skin_indent.diagnosis.workflow.Diagnosis`.
 
 :func:`write_report` writes ``fit.png`` (measurement and every fitted model),
 ``residuals.png`` (residual of each model against depth, and against time when the

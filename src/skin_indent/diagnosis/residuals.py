@@ -24,7 +24,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 #: Default significance level of the whiteness tests.
 ALPHA = 0.01
@@ -121,6 +120,8 @@ def analyse_residuals(residuals, noise_mN: float, n_parameters: int = 0, *, alph
         (about 12% for 100 points, i.e. ~35 degrees of freedom). Default: the
         noise level is known (chi-square test).
     """
+    from scipy import stats
+
     r = np.asarray(residuals, dtype=float)
     if r.ndim != 1 or r.size < 5 or not np.all(np.isfinite(r)):
         raise ValueError("residuals must be at least 5 finite numbers")

@@ -1,0 +1,600 @@
+"""Many curves at a time: every curve of every file, fitted in parallel, one row each.
+
+:func:`fit_many` expands folders and files, reads every curve (all curves of a force
+map, or one ``index``), prepares each one (:func:`skin_indent.measurement.prepare`),
+loads or builds the response surfaces they need once in this process, then fits the
+curves with :func:`skin_indent.fitting.fit` on the local cores or a Dask cluster (the
+executors of :mod:`skin_indent.response_surface`; workers use one BLAS thread) with a
+progress bar. A file that cannot be read, or a curve that cannot be fitted, is one
+:class:`BatchRow` with its one-line ``error``: never the end of the batch.
+
+:func:`write_tsv` writes the rows as a table (one line per curve, a provenance header),
+:func:`summary_figure` a figure of E per curve and, for force maps, E over the map.
+
+Surfaces
+--------
+Curves are grouped by sphere radius and by the depth ceiling h/R of the unit-radius
+surface that :func:`skin_indent.fitting.surface_for` picks for them (0.1, 0.2 or 0.5;
+deeper curves get one surface per radius, built for the deepest). The depth each curve
+needs is the one :func:`skin_indent.fitting.fit` asks for (its deepest indentation, plus
+half of it where the contact point is fitted, as room for it to move earlier). So each
+curve is fitted on the very surface a single :func:`~skin_indent.fitting.fit` would
+use, and at most three unit surfaces per mesh are built for any number of radii.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expand_paths", "fit_many",
+           "summary_figure", "write_tsv"]
+
+#: file suffixes a folder is searched for (CSV and Chiaro text without optional packages;
+#: the others need afmformats, and give a row with the install command without it)
+READABLE_SUFFIXES = (".csv", ".tsv", ".txt", ".jpk-force", ".jpk-force-map", ".jpk-qi-data", ".jpk-qi-series",
+                     ".ibw", ".tab", ".h5", ".zip")
+
+
+@dataclass(frozen=True)
+class BatchRow:
+    """The result of one curve of a batch (or the error of a file that gave no curve).
+
+    Attributes
+    ----------
+    file : str
+        The file, as found (a folder's files as ``folder/name``).
+    index : int or None
+        Curve in the file, from 0 (None: the file could not be read).
+    grid_x, grid_y : int or None
+        Grid indices of a force-map curve.
+    x_mm, y_mm : float or None
+        Position of a force-map curve (mm).
+    radius_mm : float
+        Sphere radius (mm).
+    E_kPa, E_std_kPa : float
+        Young's modulus of the large-strain neo-Hookean fit and its standard error (kPa).
+    E_star_kPa : float
+        E* = E / (1 - nu^2) (kPa).
+    nu : float
+        Poisson's ratio (fitted or fixed).
+    hertz_E_star_kPa : float
+        E* of Hertz's fit of the same points (kPa).
+    contact_point_mm : float
+        Contact point, recorded depth (mm).
+    baseline_mN : float
+        Pre-contact force baseline subtracted, at the contact guess (mN; 0: none).
+    fit_from_mm, fit_to_mm : float
+        Recorded depths of the first and last fitted points (mm).
+    max_indentation_mm : float
+        Deepest indentation past the contact point (mm).
+    n_points : int
+        Points fitted.
+    rms_mN, noise_mN : float
+        RMS residual and the noise level independent of the model (mN).
+    misfit : float
+        RMS / noise.
+    white : bool or None
+        Residual white (no structure left).
+    verdict : str
+        The fit's quality in words.
+    flags : tuple of str
+        Why the numbers may not be trusted (a parameter at a bound, a misfit far above
+        the noise); empty when there is no such reason.
+    error : str
+        One-line error when the file or the curve could not be read, prepared or
+        fitted (the numbers are then NaN); empty otherwise.
+    surface : str
+        Hash of the response surface used (the one of the unit-radius surface for a
+        rescaled one).
+    fit : CurveFit or None
+        The whole fit, kept only when asked for (``fit_many(..., keep_fits=True)``).
+    """
+
+    file: str
+    index: int | None = None
+    grid_x: int | None = None
+    grid_y: int | None = None
+    x_mm: float | None = None
+    y_mm: float | None = None
+    radius_mm: float = math.nan
+    E_kPa: float = math.nan
+    E_std_kPa: float = math.nan
+    E_star_kPa: float = math.nan
+    nu: float = math.nan
+    hertz_E_star_kPa: float = math.nan
+    contact_point_mm: float = math.nan
+    baseline_mN: float = math.nan
+    fit_from_mm: float = math.nan
+    fit_to_mm: float = math.nan
+    max_indentation_mm: float = math.nan
+    n_points: int = 0
+    rms_mN: float = math.nan
+    noise_mN: float = math.nan
+    misfit: float = math.nan
+    white: bool | None = None
+    verdict: str = ""
+    flags: tuple = ()
+    error: str = ""
+    surface: str = ""
+    fit: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def trusted(self) -> bool:
+        """No error and no flag: the numbers can be used as they are."""
+        return not self.error and not self.flags
+
+    @property
+    def label(self) -> str:
+        """``name`` or ``name[index]`` (the file's name only)."""
+        name = Path(self.file).name
+        return name if self.index is None else f"{name}[{self.index}]"
+
+    def short_label(self, width: int = 28) -> str:
+        """:attr:`label` cut in the middle to at most ``width`` characters."""
+        text = self.label
+        if len(text) <= width:
+            return text
+        keep = (width - 3) // 2
+        return f"{text[:keep]}...{text[-(width - 3 - keep):]}"
+
+    def to_dict(self) -> dict:
+        """The row as a JSON-safe dict (without ``fit``)."""
+        from ._json import jsonable
+
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "fit"}
+        out["flags"] = list(self.flags)
+        return jsonable(out)
+
+
+#: the columns of :func:`write_tsv`, in order
+TSV_COLUMNS = tuple(f.name for f in fields(BatchRow) if f.name != "fit")
+
+
+class BatchResult(list):
+    """The rows of :func:`fit_many` (a list of :class:`BatchRow`, in file and curve order).
+
+    Attributes
+    ----------
+    provenance : dict
+        How they were made (:func:`skin_indent.provenance.provenance`): the inputs with
+        their sha256, the settings and the surfaces.
+    surfaces : list
+        The response surfaces used.
+    """
+
+    def __init__(self, rows=(), provenance=None, surfaces=()):
+        super().__init__(rows)
+        self.provenance = provenance or {}
+        self.surfaces = list(surfaces)
+
+    @property
+    def n_failed(self) -> int:
+        """Rows with an error."""
+        return sum(1 for r in self if r.error)
+
+    @property
+    def n_flagged(self) -> int:
+        """Rows fitted but flagged (numbers not to be trusted)."""
+        return sum(1 for r in self if not r.error and r.flags)
+
+    @property
+    def trusted(self) -> bool:
+        """Every row fitted without error or flag."""
+        return all(r.trusted for r in self)
+
+
+# ------------------------------------------------------------------ helpers
+def _one_line(err: BaseException) -> str:
+    """A one-line message: the text of the package's own errors, ``Type: text`` of others."""
+    from .measurement import MeasurementError
+
+    text = " ".join(str(err).split())
+    if isinstance(err, (MeasurementError, ValueError)) and text:
+        return text
+    return f"{type(err).__name__}: {text}" if text else type(err).__name__
+
+
+def expand_paths(paths) -> list[Path]:
+    """Files to read: a file as given, a folder's files with a readable suffix (sorted).
+
+    Parameters
+    ----------
+    paths : path or iterable of paths
+        Files and folders (a folder is not searched recursively; hidden files are left out).
+
+    Returns
+    -------
+    list of Path
+        In the order given, each file once. A path that does not exist is kept (its row
+        will say so).
+    """
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    out, seen = [], set()
+    for p in paths:
+        p = Path(os.fspath(p))
+        found = (sorted(q for q in p.iterdir() if q.is_file() and not q.name.startswith(".")
+                        and any(q.name.lower().endswith(s) for s in READABLE_SUFFIXES))
+                 if p.is_dir() else [p])
+        for q in found:
+            key = os.path.abspath(q)
+            if key not in seen:
+                seen.add(key)
+                out.append(q)
+    return out
+
+
+def _map_position(measurement) -> dict:
+    reader = measurement.columns.get("reader", {}) if isinstance(measurement.columns, dict) else {}
+    pos = reader.get("position_mm") or (None, None)
+    return {"grid_x": reader.get("grid_index_x"), "grid_y": reader.get("grid_index_y"),
+            "x_mm": pos[0], "y_mm": pos[1]}
+
+
+def _needed_depth(prepared) -> float:
+    """The depth :func:`skin_indent.fitting.fit` asks of a surface for this curve (mm)."""
+    from .fitting.surfaces import SIMILARITY_RATIOS
+
+    depth = prepared.max_indentation_mm
+    if prepared.contact_mode == "fit":
+        depth = max(depth, min(1.5 * depth, SIMILARITY_RATIOS[-1] * prepared.radius_mm))
+    return depth
+
+
+def _surface_key(radius_mm: float, depth_mm: float):
+    from .fitting.surfaces import SIMILARITY_RATIOS
+
+    ratio = depth_mm / radius_mm
+    return radius_mm, next((r for r in SIMILARITY_RATIOS if ratio <= r * (1 + 1e-9)), None)
+
+
+def _surface_hash(surface) -> str:
+    origin = (getattr(surface, "settings", None) or {}).get("similarity")
+    return str(origin["hash"]) if origin and "hash" in origin else str(getattr(surface, "hash", ""))
+
+
+def _fit_task(prepared, surface, method, fixed, tol):
+    """One fit in a worker: ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
+    from .fitting import fit
+
+    try:
+        return fit(prepared, surface, method, fixed=dict(fixed), tol=tol), None
+    except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
+        return None, _one_line(err)
+
+
+def _row_of(base: dict, result, surface) -> BatchRow:
+    p = result.prepared
+    q = result.quality or {}
+    return BatchRow(
+        **base, radius_mm=result.radius_mm, E_kPa=result.parameters["E_kPa"],
+        E_std_kPa=result.std.get("E_kPa", math.nan), E_star_kPa=result.e_star_kPa, nu=result.parameters["nu"],
+        hertz_E_star_kPa=result.hertz.get("E_star_kPa", math.nan), contact_point_mm=result.contact_point_mm,
+        baseline_mN=p.baseline_mN, fit_from_mm=float(np.min(p.depth_mm)), fit_to_mm=float(np.max(p.depth_mm)),
+        max_indentation_mm=float(np.max(p.depth_mm) - result.contact_point_mm), n_points=int(result.n_points),
+        rms_mN=result.rms_mN, noise_mN=q.get("noise_mN", math.nan), misfit=q.get("misfit", math.nan),
+        white=q.get("white"), verdict=q.get("verdict", ""),
+        flags=tuple(result.flags) + (() if result.success else (f"not converged: {result.message}",)),
+        surface=_surface_hash(surface))
+
+
+def _plot_name(row: BatchRow) -> str:
+    stem = Path(row.file).name
+    return stem if row.index is None else f"{stem}_{row.index}"
+
+
+# ------------------------------------------------------------------ fit_many
+def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None, window=None,
+             contact: str = "auto", fixed: dict | None = None, method: str = "lsq", mesh: str = "medium",
+             context=None, progress: bool = True, surface=None, tol: float | None = None,
+             keep_fits: bool = False, plot_dir=None, command=None) -> BatchResult:
+    """Fit every curve of every file, in parallel; one :class:`BatchRow` per curve.
+
+    Parameters
+    ----------
+    paths : path or iterable of paths
+        Files and folders (:func:`expand_paths`): CSV, Chiaro ``.txt`` and, with
+        afmformats, JPK ``.jpk-force``/``.jpk-force-map`` and the other instrument
+        formats (:func:`skin_indent.measurement.load_curves`).
+    index : int, optional
+        Fit only this curve of each file (from 0); default every curve (all curves of
+        a force map).
+    radius_mm : float, optional
+        Sphere radius (mm) of every curve; default each file's own (a CSV radius
+        comment, the Chiaro header), else the skin default 6.22 mm.
+    window : (float, float), optional
+        Indentation depths past the contact point (mm).
+    contact : {"auto", "fit", "origin"}
+        Contact point (:func:`skin_indent.measurement.prepare`).
+    fixed : dict, optional
+        Parameters held fixed: ``E_kPa``, ``nu``, ``offset_mm`` (the contact point,
+        recorded depth in mm; ``contact_point_mm`` is taken as the same).
+    method : {"lsq", "ekf", "ekf-paper"}
+    mesh : str
+        Mesh preset of surfaces that have to be built (``"coarse"``, ``"medium"``, ``"fine"``).
+    context : Context, optional
+        Surface cache, and where the fits run: ``workers`` local processes (default: the
+        available cores, at most one per curve; 1 runs here), or the Dask ``client`` or
+        ``scheduler``.
+    progress : bool
+        Show a progress bar of the fits (tqdm, on stderr).
+    surface : ResponseSurface, optional
+        One neo-Hookean surface for every curve (rescaled to each radius by
+        similarity); default: found in the cache or built, once per group of curves
+        (see the module docstring).
+    tol : float, optional
+        Stop rule of the filters.
+    keep_fits : bool
+        Keep each :class:`~skin_indent.fitting.CurveFit` in its row (``row.fit``).
+    plot_dir : path, optional
+        Write a plot (:func:`skin_indent.fit_plot.plot_fit`, ``NAME_INDEX.png``) and a
+        CSV of depth, force, model and residual (``NAME_INDEX.csv``) per fitted curve
+        into this folder, each with its provenance.
+    command : sequence of str, optional
+        Command line to record (default ``sys.argv``).
+
+    Returns
+    -------
+    BatchResult
+        A list of :class:`BatchRow` in file and curve order, with ``provenance`` and
+        ``surfaces``.
+
+    Examples
+    --------
+    >>> from skin_indent.context import Context
+    >>> rows = fit_many("curves/", radius_mm=0.02, context=Context(workers=2))  # doctest: +SKIP
+    >>> write_tsv(rows, "results.tsv")                                           # doctest: +SKIP
+    """
+    from .context import context_of
+    from .measurement import load_curve, load_curves, prepare
+    from .provenance import provenance as make_provenance
+    from .response_surface._executors import make_executor
+
+    fixed = dict(fixed or {})
+    if "contact_point_mm" in fixed:
+        fixed["offset_mm"] = fixed.pop("contact_point_mm")
+    ctx = context_of(context)
+    files = expand_paths(paths)
+    rows: list = []  # BatchRow, or (base, prepared) waiting for its fit
+    for path in files:
+        try:
+            curves = (load_curves(path, radius_mm=radius_mm) if index is None
+                      else [load_curve(path, radius_mm=radius_mm, index=index)])
+        except Exception as err:  # noqa: BLE001 - a bad file is one row
+            rows.append(BatchRow(file=os.fspath(path), index=index, error=_one_line(err)))
+            continue
+        for i, m in enumerate(curves):
+            k = m.columns.get("reader", {}).get("index", i if index is None else index)
+            base = {"file": os.fspath(path), "index": k, **_map_position(m)}
+            try:
+                prepared = prepare(m, window=window, contact=contact, contact_mm=fixed.get("offset_mm"),
+                                   radius_mm=radius_mm)
+            except Exception as err:  # noqa: BLE001
+                rows.append(BatchRow(**base, error=_one_line(err)))
+                continue
+            rows.append((base, prepared))
+
+    # the surfaces, once each, here
+    pending = [i for i, r in enumerate(rows) if isinstance(r, tuple)]
+    groups: dict = {}
+    for i in pending:
+        p = rows[i][1]
+        groups.setdefault(_surface_key(p.radius_mm, _needed_depth(p)), []).append(i)
+    surface_of: dict = {}
+    surfaces = []
+    for (radius, _), members in groups.items():
+        if surface is not None:
+            s = surface
+        else:
+            depth = max(_needed_depth(rows[i][1]) for i in members)
+            try:
+                from .fitting import surface_for
+
+                s = surface_for(radius, depth, context=ctx, mesh=mesh)
+            except Exception as err:  # noqa: BLE001 - the curves of this group fail, the others go on
+                message = f"response surface for R = {radius:g} mm: {_one_line(err)}"
+                for i in members:
+                    rows[i] = BatchRow(**rows[i][0], radius_mm=radius, error=message)
+                continue
+        surfaces.append(s)
+        for i in members:
+            surface_of[i] = s
+
+    settings = {"radius_mm": radius_mm, "index": index, "window_mm": window, "contact": contact, "fixed": fixed,
+                "method": method, "mesh": mesh, "tol": tol}
+    prov = make_provenance(command=command, inputs=files, settings=settings, surface=surfaces)
+
+    tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol)) for i in pending if i in surface_of]
+    if tasks:
+        from tqdm.auto import tqdm
+
+        executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
+        bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress)
+        try:
+            for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
+                base, prepared = rows[i]
+                result, message = value if err is None else (None, _one_line(err))
+                if result is None:
+                    rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, error=message)
+                else:
+                    row = _row_of(base, result, surface_of[i])
+                    if plot_dir is not None:
+                        row = _write_plots(row, result, plot_dir, prov)
+                    rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})
+                bar.update(1)
+        finally:
+            bar.close()
+            executor.close()
+    return BatchResult(rows, provenance=prov, surfaces=surfaces)
+
+
+def _fields(row: BatchRow) -> dict:
+    return {f.name: getattr(row, f.name) for f in fields(row)}
+
+
+def _write_plots(row: BatchRow, result, plot_dir, prov) -> BatchRow:
+    """The plot and CSV of one fit; a failure to write becomes a flag of the row, not an error."""
+    from .fit_plot import plot_fit, write_fit_csv
+
+    name = _plot_name(row)
+    one = {**prov, "inputs": [i for i in prov.get("inputs", ())
+                              if i.get("path") == os.path.abspath(row.file)] or prov.get("inputs", []),
+           "curve": {"file": row.file, "index": row.index}}
+    try:
+        plot_fit(result, Path(plot_dir) / f"{name}.png")
+        write_fit_csv(result, Path(plot_dir) / f"{name}.csv", one)
+    except Exception as err:  # noqa: BLE001
+        return BatchRow(**{**_fields(row), "flags": row.flags + (f"plot not written: {_one_line(err)}",)})
+    return row
+
+
+# ------------------------------------------------------------------ outputs
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return "nan" if math.isnan(value) else f"{float(value):.10g}"
+    if isinstance(value, (tuple, list)):
+        return " | ".join(_cell(v) for v in value)
+    return " ".join(str(value).replace("\t", " ").split())
+
+
+def write_tsv(rows, path, provenance: dict | None = None) -> Path:
+    """Write the rows as a tab-separated table, one line per curve, after a provenance header.
+
+    Parameters
+    ----------
+    rows : sequence of BatchRow
+        From :func:`fit_many`.
+    path : path
+        The TSV file (written atomically, mode 0644 under the usual umask).
+    provenance : dict, optional
+        :func:`skin_indent.provenance.provenance`; default the rows' own
+        (``rows.provenance`` of a :class:`BatchResult`).
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    Columns :data:`TSV_COLUMNS`: units in the names (mm, mN, kPa); empty cells for
+    missing values, ``nan`` for numbers not computed; ``flags`` joined by `` | ``.
+    ``#`` lines come first (:func:`skin_indent.provenance.provenance_comment_lines`;
+    read them back with :func:`skin_indent.provenance.read_provenance`), so
+    ``pandas.read_csv(path, sep="\\t", comment="#")`` reads the table.
+    """
+    from ._atomic import atomic_write
+    from .provenance import provenance_comment_lines
+
+    prov = provenance if provenance is not None else getattr(rows, "provenance", None)
+    lines = provenance_comment_lines(prov) if prov else []
+    lines.append("\t".join(TSV_COLUMNS))
+    lines.extend("\t".join(_cell(getattr(r, c)) for c in TSV_COLUMNS) for r in rows)
+    text = "\n".join(lines) + "\n"
+    return atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
+
+
+def summary_figure(rows, path, *, title: str | None = None) -> Path:
+    """A PNG of E per curve and, for each force map, E over the map's positions.
+
+    Parameters
+    ----------
+    rows : sequence of BatchRow
+    path : path
+        The PNG (written atomically, mode 0644).
+    title : str, optional
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    Left: E (kPa, log scale) with its standard error per curve, in row order; curves
+    whose misfit exceeds :data:`skin_indent.fitting.MISFIT_LIMIT` times the noise in
+    orange, flagged curves in red, curves that failed as a grey cross at the bottom. Right (one panel
+    per force-map file with map positions): the map points coloured by log10 E.
+    """
+    import io
+
+    from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
+
+    from .fitting import MISFIT_LIMIT
+
+    from ._atomic import atomic_write
+
+    rows = list(rows)
+    maps: dict = {}
+    for r in rows:
+        if not r.error and r.x_mm is not None and r.y_mm is not None:
+            maps.setdefault(r.file, []).append(r)
+    n_maps = min(len(maps), 3)
+    fig = Figure(figsize=(6.5 + 4.0 * n_maps, 4.2), layout="constrained")
+    axes = fig.subplots(1, 1 + n_maps, squeeze=False)[0]
+    ax = axes[0]
+    x = np.arange(len(rows))
+    E = np.array([r.E_kPa if not r.error else np.nan for r in rows], dtype=float)
+    sd = np.array([r.E_std_kPa if not r.error else np.nan for r in rows], dtype=float)
+    misfit = np.array([r.misfit if not r.error else np.nan for r in rows], dtype=float)
+    flagged = np.array([not r.error and bool(r.flags) for r in rows], dtype=bool)
+    poor = ~flagged & (misfit > MISFIT_LIMIT)
+    good = np.array([not r.error for r in rows], dtype=bool) & ~flagged & ~poor
+    failed = np.array([bool(r.error) for r in rows], dtype=bool)
+    finite = np.isfinite(E) & (E > 0)
+    sd = np.where(np.isfinite(sd), sd, 0.0)
+    for sel, color, label in ((good & finite, "C0", "fitted"),
+                              (poor & finite, "C1", f"misfit > {MISFIT_LIMIT:g} x noise"),
+                              (flagged & finite, "C3", "flagged")):
+        if np.any(sel):
+            ax.errorbar(x[sel], E[sel], yerr=np.minimum(sd[sel], 0.999 * E[sel]), fmt="o", color=color,
+                        capsize=2, label=label)
+    if np.any(finite):
+        from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+        ax.set_yscale("log")
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.yaxis.set_minor_formatter(NullFormatter())
+        low = np.nanmin(E[finite]) / 2
+    else:
+        low = 1.0
+    if np.any(failed):
+        ax.plot(x[failed], np.full(failed.sum(), low), "x", color="0.5", label="failed")
+    ax.set_xticks(x, [r.short_label() for r in rows], rotation=60 if len(rows) > 3 else 0, ha="right" if len(rows) > 3
+                  else "center", fontsize=8 if len(rows) < 30 else 5)
+    ax.set_ylabel("E (kPa)")
+    ax.set_title(title or f"E per curve ({len(rows)} curves: {int(failed.sum())} failed, {int(flagged.sum())} "
+                          f"flagged, {int(poor.sum())} with misfit > {MISFIT_LIMIT:g} x noise)", fontsize=10)
+    if len(rows):
+        ax.legend(fontsize=8)
+    for ax, (name, rs) in zip(axes[1:], list(maps.items())[:n_maps]):
+        xy = np.array([(r.x_mm, r.y_mm) for r in rs], dtype=float) * 1e3  # um
+        e = np.array([r.E_kPa for r in rs], dtype=float)
+        ok = np.isfinite(e) & (e > 0)
+        sc = ax.scatter(xy[ok, 0], xy[ok, 1], c=np.log10(e[ok]), marker="s", s=80, cmap="viridis")
+        bad = np.array([bool(r.flags) for r in rs])
+        if np.any(bad):
+            ax.scatter(xy[bad, 0], xy[bad, 1], facecolors="none", edgecolors="C3", marker="s", s=140,
+                       label="flagged")
+            ax.legend(fontsize=8)
+        for (px, py), r in zip(xy, rs):
+            ax.annotate(str(r.index), (px, py), fontsize=7, xytext=(4, 4), textcoords="offset points")
+        if np.any(ok):
+            fig.colorbar(sc, ax=ax, label="log10 E (kPa)")
+        ax.set_xlabel("x (um)")
+        ax.set_ylabel("y (um)")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(Path(name).name, fontsize=9)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return atomic_write(path, lambda fh: fh.write(buf.getvalue()))

@@ -1,0 +1,20 @@
+"""Diagnosis: compare model and measurement, say where the model fails and which
+physical effect is missing, add it and watch the error fall.
+
+- :mod:`.residuals`: is a residual noise or structure, and where (statistics);
+- :mod:`.fits`: the fits of one diagnosis, each a :class:`Rung`;
+- :mod:`.evidence`: which measurement separates two candidates;
+- :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
+- :mod:`.report`: figures and a self-contained HTML page.
+
+The curve is prepared by :func:`skin_indent.measurement.prepare` (as for fits), and the
+candidate effects are the registered ones (:mod:`skin_indent.effects`).
+"""
+
+from .fits import MODEL_ERROR, Rung
+from .report import write_report
+from .residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
+from .workflow import Diagnosis, diagnose
+
+__all__ = ["MODEL_ERROR", "Diagnosis", "ResidualAnalysis", "Rung", "analyse_residuals", "describe_structure",
+           "diagnose", "effective_sample_size", "write_report"]

@@ -1,0 +1,77 @@
+"""Which measurement would separate two candidates that explain a curve about equally well."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..effects import DEPTH, HISTORY, effect
+
+#: length of the suggested hold at the deepest point, s
+HOLD_S = 30.0
+
+
+def _forward_difference(fitter, a, b, radius_mm, depth_mm) -> float:
+    """Max |F_a - F_b| (mN) of forward FE runs of the two fitted models (contact shift left out)."""
+    from ..effects import Model
+
+    forces = []
+    for f in (a, b):
+        effects = tuple(e for e in f.effects if effect(e).stage != DEPTH)
+        theta = {k: v for k, v in f.parameters.items()
+                 if k in Model(effects, radius_mm).parameter_names}
+        forces.append(Model(effects, radius_mm).simulate(theta, depth_mm, mesh="coarse").force_mN)
+    return float(np.max(np.abs(forces[0] - forces[1])))
+
+
+def _hold_difference(fitter, a, b) -> float:
+    """Max |F_a - F_b| (mN) of the two fitted models over a hold at the deepest point after the loading."""
+    d = fitter.data
+    load = np.flatnonzero(d.kind == "approach")
+    end = int(load[np.argmax(d.depth_mm[load])]) + 1
+    t_end = float(d.time_s[end - 1])
+    t_hold = t_end + np.linspace(HOLD_S / 30, HOLD_S, 30)
+    history = dataclasses.replace(
+        d, depth_mm=np.r_[d.depth_mm[:end], np.full(30, d.depth_mm[end - 1])],
+        force_mN=np.r_[d.force_mN[:end], np.full(30, d.force_mN[end - 1])],
+        time_s=np.r_[d.time_s[:end], t_hold], kind=np.r_[d.kind[:end], np.full(30, "hold")])
+    from ..models import ComposedModel
+
+    out = []
+    for f in (a, b):
+        m = f.bound_model
+        out.append(ComposedModel(m.core, m.effects, history).force(history.depth_mm, f.x))
+    return float(np.max(np.abs(out[0][end:] - out[1][end:])))
+
+
+def suggest_measurement(fitter, a, b) -> str:
+    """Which extra measurement separates two fitted candidates, with the predicted difference.
+
+    Compared: (i) a sphere of half the radius and (ii) an indentation 1.5 times deeper,
+    by forward finite-element runs of the two fitted models (where both have a
+    finite-element form and need no time history); (iii) a 30 s hold at the deepest
+    point, from the two fitted models themselves (where one of them acts along the time
+    history).
+    """
+    out = {}
+    objs = [effect(e) for e in (*a.effects, *b.effects)]
+    if not any(e.needs_history for e in objs):
+        hmax, R = fitter.max_depth, fitter.radius_mm
+        for label, radius, depth in ((f"a sphere of half the radius (R = {R / 2:.3g} mm) to the same depth", R / 2, hmax),
+                                     (f"an indentation 1.5 times deeper ({1.5 * hmax:.3g} mm)", R, 1.5 * hmax)):
+            try:
+                out[label] = _forward_difference(fitter, a, b, radius, depth)
+            except Exception:  # noqa: BLE001 - a measurement we cannot predict is not suggested
+                continue
+    if fitter.data.time_s is not None and any(e.stage == HISTORY for e in objs):
+        try:
+            out[f"a {HOLD_S:g} s hold at the deepest point"] = _hold_difference(fitter, a, b)
+        except Exception:  # noqa: BLE001
+            pass
+    ea, eb = a.effects[-1], b.effects[-1]
+    if not out:
+        return "no extra measurement computed here separates them"
+    label, diff = max(out.items(), key=lambda kv: kv[1])
+    return (f"{label} would separate {ea} from {eb}: the fitted models differ there by up to {diff:.3g} mN, "
+            f"{diff / fitter.noise_mN:.1f} times the noise")

@@ -1,0 +1,47 @@
+"""Physical effects: what a homogeneous neo-Hookean half-space misses, one module each.
+
+The base model is a neo-Hookean half-space (E, nu). Each effect adds what the simple
+model misses, with parameters that response surfaces, fits and diagnosis take like E
+and nu. The vocabulary (:data:`EFFECTS`, in this order):
+
+``layer`` (:mod:`.layer`)
+    a bonded top layer over a half-space of another modulus, or over a rigid base
+    (``ratio = inf``): ``thickness_mm``, ``ratio`` = E_below / E_top.
+``stiffening`` (:mod:`.stiffening`)
+    strain stiffening, W = W_NH + C20 (I1b - 3)^2: ``C20_kPa``.
+``viscoelastic`` (:mod:`.viscoelastic`)
+    quasi-linear viscoelasticity with one Prony term: ``g1``, ``tau1_s``.
+``friction`` (:mod:`.friction`)
+    Coulomb friction between sphere and skin (stick and slip): ``mu``.
+``adhesion`` (:mod:`.adhesion`)
+    work of adhesion ``w_mJ_per_m2`` (pull-off on unloading).
+``offset`` (:mod:`.offset`)
+    a shift of the contact point: ``offset_mm`` (a nuisance parameter of fits).
+
+Every effect has an *off* value that gives back the base model exactly. In a
+:class:`Model`, ``E_kPa`` is the modulus of the top material and every other modulus
+is relative to it, so the force is exactly proportional to ``E_kPa``.
+
+What an effect is made of, and how to add one: :mod:`.base` (:class:`Effect`) and
+:func:`register`.
+"""
+
+from .adhesion import RANGE_MM as ADHESION_RANGE_MM
+from .adhesion import Adhesion
+from .base import BASE_PARAMETERS, DEPTH, ELASTIC, FORCE, HISTORY, STAGE_ORDER, WEIGHED, Effect, EffectParameter, Evaluation, \
+    ForwardSpec
+from .friction import Friction
+from .layer import Layer
+from .model import Model
+from .offset import Offset
+from .registry import EFFECTS, effect, register, unregister
+from .stiffening import Stiffening
+from .viscoelastic import Viscoelastic
+
+for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), Offset()):
+    register(_e, replace=True)
+del _e
+
+__all__ = ["ADHESION_RANGE_MM", "BASE_PARAMETERS", "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED",
+           "Adhesion", "Effect", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset",
+           "Stiffening", "Viscoelastic", "effect", "register", "unregister"]

@@ -1,0 +1,74 @@
+"""``friction``: Coulomb friction between sphere and skin (regularised penalty, stick and slip), ``mu``.
+
+Forward: the finite-element contact law (:class:`~skin_indent.mechanics.contact.ContactLaw`),
+history dependent. Not fitted: diagnosis weighs it (:meth:`Friction.weigh`) by two
+coarse finite-element runs at the best fit's nu, frictionless and at full stick,
+against what refitting E and nu absorbs.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .base import WEIGHED, Effect, EffectParameter, ForwardSpec
+
+#: chi-square full stick must be able to add beyond what E and nu absorb to be detectable
+DETECTABLE = 10.0
+
+
+@functools.lru_cache(maxsize=32)
+def full_stick_ratio(nu: float, depth_mm: float, radius_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Depths (mm) and F(full stick) / F(frictionless) of a neo-Hookean half-space (coarse FE, 24 steps)."""
+    from ..simulate import simulate
+    from ..mechanics.contact import ContactLaw, SphericalIndenter
+    from ..mechanics.materials import NeoHooke
+    from ..protocol import Protocol
+
+    ramp = Protocol.ramp(depth_mm, 24)
+    runs = [simulate(NeoHooke(1.0, nu), SphericalIndenter(radius_mm), depth_mm, protocol=ramp, mesh="coarse",
+                     contact=ContactLaw(friction=mu)) for mu in (0.0, 1.0)]
+    return runs[0].depth_mm[1:], runs[1].force_mN[1:] / runs[0].force_mN[1:]
+
+
+class Friction(Effect):
+    name = "friction"
+    description = "friction between sphere and skin (stick and slip)"
+    parameters = (EffectParameter("mu", "-", 0.0, 10.0, 0.0, False, "Coulomb friction coefficient (10: full stick)"),)
+    stage = WEIGHED
+    needs_history = True
+
+    def configure(self, spec: ForwardSpec, values: dict) -> None:
+        spec.contact["friction"] = values["mu"]
+
+    def weigh(self, diagnosis, best) -> str:
+        """Full stick at the best fit's nu against what refitting E and nu absorbs, in words.
+
+        ``diagnosis`` gives the prepared data, the radius and the error model
+        (``sigma(force)``); ``best`` is the best-fitting model (its parameters, prediction
+        and ``model``/``x`` for the (E, nu) Jacobian columns).
+        """
+        nu = float(best.parameters.get("nu", 0.45))
+        d = diagnosis.data
+        h = d.depth_mm - best.parameters.get("offset_mm", 0.0)
+        touch = h > 0
+        hmax = float(h[touch].max())
+        try:
+            depths, ratio_curve = full_stick_ratio(round(nu, 3), float(f"{hmax:.3g}"), d.radius_mm)
+        except Exception as exc:  # noqa: BLE001 - reported, not fatal
+            return f"the full-stick check did not run ({type(exc).__name__}: {exc})"
+        ratio = np.interp(h[touch], depths, ratio_curve)
+        delta = np.zeros_like(h)
+        delta[touch] = best.prediction_mN[touch] * (ratio - 1.0)
+        J = best.bound_model.jacobian(d.depth_mm, best.x)[:, :2]  # what refitting E and nu cannot absorb
+        s = diagnosis.sigma(best.prediction_mN)
+        A, b = J / s[:, None], delta / s
+        coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+        gain = float(np.sum((b - A @ coef) ** 2))
+        change = float(np.max(np.abs(delta)))
+        if gain < DETECTABLE:
+            return (f"full stick changes the force by at most {change:.2g} mN at nu = {nu:.2f}, and refitting E "
+                    f"absorbs all but a chi-square of {gain:.2g} (< {DETECTABLE:g})")
+        return (f"full stick could change this curve beyond the noise (chi-square {gain:.3g} after refitting E and "
+                f"nu, at nu = {nu:.2f}), but no friction model is fitted yet")

@@ -1,0 +1,59 @@
+"""``layer``: a bonded top layer over a half-space of another modulus, or over a rigid base.
+
+Parameters: ``thickness_mm`` and ``ratio`` = E_below / E_top (``inf``: a rigid base).
+It is fitted on a response surface over the thickness and the compliance
+``1 / ratio`` = E_top / E_below, in the coordinate ``log(compliance + 0.1)`` (log F is
+nearly linear there, as for springs in series; a rigid base is the node 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+from .base import ELASTIC, Effect, EffectParameter, ForwardSpec
+
+
+class Layer(Effect):
+    name = "layer"
+    description = "a bonded top layer over a softer or stiffer half-space, or a rigid base"
+    parameters = (
+        EffectParameter("thickness_mm", "mm", 0.05, 20.0, None, True, "thickness of the bonded top layer", 1.0),
+        EffectParameter("ratio", "-", 0.02, math.inf, 1.0, True,
+                        "modulus of the material below over that of the layer (inf: rigid base)"),
+    )
+    stage = ELASTIC
+
+    def configure(self, spec: ForwardSpec, values: dict) -> None:
+        if values["ratio"] == 1.0:
+            return
+        if not spec.layers:
+            spec.layers.append((values["thickness_mm"], 1.0))
+        else:  # a layer under the previous ones: its modulus is what was below them
+            spec.layers.append((values["thickness_mm"], spec.below))
+        spec.below = spec.below * values["ratio"]
+
+    # fitted on a surface over thickness and compliance = 1 / ratio
+    @property
+    def fit_names(self):
+        return ("thickness_mm", "compliance")
+
+    def to_fit(self, values, E_kPa):
+        r = values["ratio"]
+        return {"thickness_mm": float(values["thickness_mm"]), "compliance": 0.0 if math.isinf(r) else 1.0 / r}
+
+    def from_fit(self, fit, E_kPa):
+        c = float(fit["compliance"])
+        return {"thickness_mm": float(fit["thickness_mm"]), "ratio": math.inf if c < 1e-6 else 1.0 / c}
+
+    def surface_axes(self, max_depth_mm):
+        """Thickness 1.5-17 times the deepest depth (log; a layer thinner than ~1.5 depths on a
+        rigid base is squeezed beyond what the FE model solves), compliance in [0, 8]."""
+        from ..response_surface.effect_surface import EffectAxis
+
+        t = tuple(float(f"{max_depth_mm * k:.4g}") for k in (1.5, 2.5, 4.0, 6.5, 10.5, 17.0))
+        return (EffectAxis("thickness_mm", t, "log"),
+                EffectAxis("compliance", (0.0, 0.12, 0.3, 0.65, 1.4, 3.2, 8.0), "log", 0.1))
+
+    def starts(self, data, bounds):
+        lo, hi = bounds["thickness_mm"]
+        return {"thickness_mm": (math.sqrt(lo * hi),), "compliance": (0.0, 0.5, 4.0)}

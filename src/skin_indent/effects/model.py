@@ -1,0 +1,124 @@
+"""A model: the neo-Hookean half-space plus a set of effects, for finite-element runs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .base import BASE_PARAMETERS, EffectParameter, ForwardSpec
+from .registry import effect as _effect
+
+
+@dataclass(frozen=True)
+class Model:
+    """The neo-Hookean half-space plus a set of effects.
+
+    Parameters
+    ----------
+    effects : tuple of str or Effect
+        Effects of the vocabulary (:data:`~skin_indent.effects.EFFECTS`), each at most once.
+    radius_mm : float
+        Sphere radius, mm.
+
+    Examples
+    --------
+    >>> m = Model(("layer",))
+    >>> m.parameter_names
+    ('E_kPa', 'nu', 'thickness_mm', 'ratio')
+    """
+
+    effects: tuple = ()
+    radius_mm: float = 6.22
+
+    def __post_init__(self):
+        from ..mechanics.contact import SphericalIndenter
+
+        names = tuple(_effect(e).name for e in self.effects)
+        if len(set(names)) != len(names):
+            raise ValueError(f"each effect may appear once, got {names}")
+        object.__setattr__(self, "effects", names)
+        SphericalIndenter(self.radius_mm)
+
+    @property
+    def effect_objects(self) -> tuple:
+        return tuple(_effect(e) for e in self.effects)
+
+    @property
+    def name(self) -> str:
+        return "neo-hooke" + "".join(f"+{e}" for e in self.effects)
+
+    @property
+    def parameters(self) -> tuple[EffectParameter, ...]:
+        return BASE_PARAMETERS + tuple(p for e in self.effect_objects for p in e.parameters)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def needs_history(self) -> bool:
+        return any(e.needs_history for e in self.effect_objects)
+
+    def with_effect(self, name) -> "Model":
+        return Model(self.effects + (_effect(name).name,), self.radius_mm)
+
+    def check(self, theta: dict) -> dict:
+        """Complete ``theta`` with off values and check every parameter against its range."""
+        out = {}
+        for p in self.parameters:
+            if p.name in theta:
+                value = p.check(theta[p.name])
+            elif p.off is not None:
+                value = p.off
+            elif p.neutral is not None:
+                value = p.neutral  # does not matter while its effect is off
+            else:
+                raise ValueError(f"model {self.name} needs a value for {p.name}")
+            out[p.name] = value
+        unknown = set(theta) - set(out)
+        if unknown:
+            raise ValueError(f"model {self.name} has no parameter(s) {sorted(unknown)}")
+        return out
+
+    def spec(self, theta: dict) -> ForwardSpec:
+        """The :class:`ForwardSpec` of the parameters ``theta``: every effect configures its part."""
+        t = self.check(theta)
+        spec = ForwardSpec(t["E_kPa"], t["nu"])
+        for e in self.effect_objects:
+            e.configure(spec, {k: t[k] for k in e.parameter_names})
+        return spec
+
+    def sample(self, theta: dict):
+        """The material or layered sample of the parameters ``theta`` (mm, kPa, s)."""
+        return self.spec(theta).sample()
+
+    def contact(self, theta: dict):
+        """The :class:`~skin_indent.mechanics.contact.ContactLaw` of ``theta`` (frictionless, non-adhesive by default)."""
+        from ..mechanics.contact import ContactLaw
+
+        return ContactLaw(**self.spec(theta).contact)
+
+    def simulate(self, theta: dict, depth_mm=None, *, protocol=None, mesh="medium", **kwargs):
+        """Force-depth curve of the parameters ``theta`` (see :func:`skin_indent.simulate.simulate`).
+
+        History-dependent parameters (viscoelastic, friction) need ``protocol``; the
+        offset is applied to the recorded depths.
+        """
+        from ..mechanics.contact import ContactLaw, SphericalIndenter
+        from ..simulate import simulate
+
+        spec = self.spec(theta)
+        sample = spec.sample()
+        contact = ContactLaw(**spec.contact)
+        if protocol is None and not (sample.path_independent and contact.path_independent):
+            raise ValueError(f"model {self.name} with these parameters needs a protocol (time and depth)")
+        return simulate(sample, SphericalIndenter(self.radius_mm), depth_mm if protocol is None else 0.6,
+                        protocol=protocol, offset_mm=spec.offset_mm, mesh=mesh,
+                        contact=kwargs.pop("contact", contact), **kwargs)
+
+    def unit_parameters(self, theta: dict) -> dict:
+        """The parameters of the unit-modulus curve: every effect's parameters relative to E (C20 / E, w / E...)."""
+        t = self.check(theta)
+        out = {"nu": t["nu"]}
+        for e in self.effect_objects:
+            out.update(e.relative({k: t[k] for k in e.parameter_names}, t["E_kPa"]))
+        return out

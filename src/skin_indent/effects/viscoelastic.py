@@ -1,0 +1,65 @@
+"""``viscoelastic``: quasi-linear viscoelasticity with one Prony term (``g1``, ``tau1_s``).
+
+Forward: every material relaxes (:class:`~skin_indent.mechanics.materials.Viscoelastic`,
+E is the instantaneous modulus). Fitted: the Lee-Radok / Ting hereditary integral over
+the elastic force (:mod:`skin_indent.response_surface.hereditary`), exact at small
+strain and the QLV approximation at large strain: no extra finite-element runs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import HISTORY, Effect, EffectParameter, Evaluation, ForwardSpec
+
+
+class Viscoelastic(Effect):
+    name = "viscoelastic"
+    description = "rate-dependent (quasi-linear viscoelastic) response"
+    parameters = (
+        EffectParameter("g1", "-", 0.0, 0.95, 0.0, False, "relative modulus of the Prony term"),
+        EffectParameter("tau1_s", "s", 1e-3, 1e4, None, True, "relaxation time of the Prony term", 1.0),
+    )
+    stage = HISTORY
+    needs_history = True
+
+    def configure(self, spec: ForwardSpec, values: dict) -> None:
+        if values["g1"] > 0:
+            spec.prony.append((values["g1"], values["tau1_s"]))
+
+    def fit_bounds(self, data, reach_mm=float("inf")):
+        """g1 in [0, 0.95]; tau from the sampling step (or 1e-3 of the duration) to 10 durations."""
+        if data.time_s is None:
+            raise ValueError("a viscoelastic model needs the measurement's time_s")
+        duration = float(data.time_s[-1] - data.time_s[0])
+        dt = np.diff(data.time_s)
+        step = float(np.median(dt[dt > 0])) if np.any(dt > 0) else duration * 1e-3
+        return {"g1": (0.0, self.parameters[0].upper), "tau1_s": (max(step, duration * 1e-3), 10.0 * duration)}
+
+    def starts(self, data, bounds):
+        duration = float(data.time_s[-1] - data.time_s[0])
+        return {"g1": (0.3,), "tau1_s": (duration / 20, duration / 4, duration)}
+
+    def apply(self, ev: Evaluation, fit: dict) -> None:
+        from ..response_surface.hereditary import hereditary_force, relaxation_weights
+
+        g, tau = float(fit["g1"]), float(fit["tau1_s"])
+        weights = ev.cache.setdefault("relaxation_weights", {})
+        if (g, tau) not in weights:
+            if len(weights) > 64:
+                weights.clear()
+            weights[(g, tau)] = relaxation_weights(ev.time_s, ((g, tau),))
+        ev.force_mN = hereditary_force(ev.time_s, ev.h_mm, ev.force_mN, ((g, tau),), weights=weights[(g, tau)])
+
+    def visible(self, data, noise_mN):
+        if data.time_s is None:
+            return "the curve has no time column: rate effects cannot be told from elastic ones"
+        if data.has("hold") or data.has("retract"):
+            return None
+        load = data.kind == "approach"
+        v = np.diff(data.depth_mm[load]) / np.diff(data.time_s[load])
+        v = v[np.isfinite(v) & (v > 0)]
+        if v.size > 5 and np.percentile(v, 90) > 1.5 * np.percentile(v, 10):
+            return None
+        return ("a single constant-speed loading ramp: relaxation during it looks like an elastic nonlinearity; "
+                "a hold or an unloading segment would show it")

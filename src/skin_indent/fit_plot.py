@@ -1,0 +1,193 @@
+"""A picture and a table of one fit: data, model and residuals against depth.
+
+- :func:`fit_arrays`: the fitted points (recorded depth, force with the baseline
+  removed), the model force at them and the residual, from a
+  :class:`~skin_indent.fitting.CurveFit`;
+- :func:`plot_fit`: a PNG of the data, the model (and Hertz's fit of the same points),
+  the contact point and the fitted range, and the residuals against the noise;
+- :func:`write_fit_csv`: a CSV of depth, force, model and residual with a provenance
+  header.
+
+The model force is the fitted model at the fitted parameters (for a fitted contact
+point, the neo-Hookean surface with the ``offset`` effect, as
+:func:`skin_indent.fitting.fit` builds it): the force minus the fit's own residuals,
+so plot, table and fit agree to the last digit. matplotlib is used without pyplot
+(no GUI backend, no global state).
+"""
+
+from __future__ import annotations
+
+import io
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["fit_arrays", "plot_fit", "write_fit_csv"]
+
+_DEPTH_UNITS = (("mm", 1.0), ("um", 1e3), ("nm", 1e6))
+_FORCE_UNITS = (("mN", 1.0), ("uN", 1e3), ("nN", 1e6), ("pN", 1e9))
+
+
+def fit_arrays(curve_fit) -> dict:
+    """The fitted points of a fit, the model force at them and the residual.
+
+    Parameters
+    ----------
+    curve_fit : CurveFit
+        From :func:`skin_indent.fitting.fit`.
+
+    Returns
+    -------
+    dict
+        ``depth_mm`` (recorded depth, mm), ``force_mN`` (baseline removed, mN),
+        ``model_mN`` (mN) and ``residual_mN`` = force - model (mN), arrays of the
+        fitted points; ``indentation_mm`` = depth - contact point (mm).
+
+    Raises
+    ------
+    ValueError
+        If the fit's residuals do not belong to its prepared points.
+    """
+    p = curve_fit.prepared
+    if p.contact_mode == "fit":
+        depth, force = np.asarray(p.depth_mm, float), np.asarray(p.force_mN, float)
+    else:  # the loading points in contact, as fit() takes them
+        sel = (p.kind == "approach") & (p.depth_mm > p.contact_guess_mm)
+        depth, force = np.asarray(p.depth_mm[sel], float), np.asarray(p.force_mN[sel], float)
+    residual = np.asarray(curve_fit.residuals_mN, dtype=float)
+    if residual.shape != depth.shape:
+        raise ValueError(f"the fit has {residual.size} residuals for {depth.size} prepared points")
+    return {"depth_mm": depth, "force_mN": force, "model_mN": force - residual, "residual_mN": residual,
+            "indentation_mm": depth - curve_fit.contact_point_mm}
+
+
+def _unit(values, units):
+    """The unit (name, factor) that puts the largest |value| between 1 and 1000."""
+    peak = float(np.nanmax(np.abs(values))) if np.size(values) else 1.0
+    for name, factor in units:
+        if peak * factor >= 1.0:
+            return name, factor
+    return units[-1]
+
+
+def _hertz_mN(curve_fit, depth_mm) -> np.ndarray | None:
+    h = curve_fit.hertz or {}
+    e_star, c = h.get("E_star_kPa"), h.get("contact_point_mm", curve_fit.contact_point_mm)
+    if e_star is None or not np.isfinite(e_star):
+        return None
+    d = np.clip(np.asarray(depth_mm, float) - c, 0.0, None)
+    return 4.0 / 3.0 * e_star * np.sqrt(curve_fit.radius_mm) * d**1.5  # kPa mm^2 = mN
+
+
+def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Path:
+    """Write a PNG of a fit: data, model and residuals against depth.
+
+    Top: the approach as recorded (baseline removed, light), the fitted points, the
+    model at them, Hertz's fit of the same points (dashed), the contact point (vertical
+    line) and the fitted depth range (shaded). Bottom: the residual with +-2 noise
+    levels (the noise independent of the model, ``curve_fit.quality``). Depth and
+    force are shown in the unit that suits their size (mm, um or nm; mN, uN, nN, pN).
+
+    Parameters
+    ----------
+    curve_fit : CurveFit
+        From :func:`skin_indent.fitting.fit`.
+    path : path
+        The PNG (written atomically, mode 0644 under the usual umask).
+    title : str, optional
+        Default: the source, E, nu and the quality verdict.
+    dpi : int
+
+    Returns
+    -------
+    Path
+    """
+    from matplotlib.figure import Figure
+
+    from ._atomic import atomic_write
+
+    a = fit_arrays(curve_fit)
+    p = curve_fit.prepared
+    m = p.measurement
+    approach = m.loading() if m.has_time else m
+    raw_d = np.asarray(approach.depth_mm, float)
+    raw_f = np.asarray(approach.force_mN, float)
+    if p.baseline is not None:
+        raw_f = raw_f - p.baseline.force_at(raw_d)
+    dname, dk = _unit(np.r_[raw_d, a["depth_mm"]], _DEPTH_UNITS)
+    fname, fk = _unit(a["force_mN"], _FORCE_UNITS)
+
+    fig = Figure(figsize=(7.0, 6.0), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1.4))
+    lo, hi = float(a["depth_mm"].min()), float(a["depth_mm"].max())
+    for ax in (top, bottom):
+        ax.axvspan(lo * dk, hi * dk, color="0.93", zorder=0)
+        ax.axvline(curve_fit.contact_point_mm * dk, color="C3", lw=1, ls=":")
+    top.plot(raw_d * dk, raw_f * fk, ".", ms=1.5, color="0.75", label="approach (baseline removed)")
+    top.plot(a["depth_mm"] * dk, a["force_mN"] * fk, ".", ms=2.5, color="k", label="fitted points")
+    top.plot(a["depth_mm"] * dk, a["model_mN"] * fk, "-", color="C0", lw=1.8,
+             label=f"neo-Hooke: E = {curve_fit.parameters['E_kPa']:.4g} kPa, nu = {curve_fit.parameters['nu']:.3g}")
+    hertz = _hertz_mN(curve_fit, a["depth_mm"])
+    if hertz is not None:
+        top.plot(a["depth_mm"] * dk, hertz * fk, "--", color="C2", lw=1,
+                 label=f"Hertz: E* = {curve_fit.hertz['E_star_kPa']:.4g} kPa")
+    top.plot([], [], color="C3", ls=":", label=f"contact point {curve_fit.contact_point_mm * dk:.5g} {dname}")
+    top.set_ylabel(f"force ({fname})")
+    top.legend(fontsize=8, loc="upper left")
+    q = curve_fit.quality or {}
+    if title is None:
+        title = "\n".join(textwrap.wrap(f"{p.source} (R = {curve_fit.radius_mm:g} mm): {q.get('verdict', '')}", 90))
+    top.set_title(title, fontsize=9)
+    bottom.plot(a["depth_mm"] * dk, a["residual_mN"] * fk, ".", ms=2.5, color="k")
+    bottom.axhline(0.0, color="C0", lw=1)
+    noise = q.get("noise_mN")
+    if noise:
+        for s in (-2, 2):
+            bottom.axhline(s * noise * fk, color="0.5", lw=0.8, ls="--")
+        bottom.plot([], [], color="0.5", ls="--", label=f"+-2 noise ({q.get('misfit', float('nan')):.2g} x noise RMS)")
+        bottom.legend(fontsize=8, loc="upper left")
+    bottom.set_ylabel(f"residual ({fname})")
+    bottom.set_xlabel(f"recorded depth ({dname})")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return atomic_write(path, lambda fh: fh.write(buf.getvalue()))
+
+
+def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
+    """Write the fitted points, the model and the residual as CSV, after a provenance header.
+
+    Parameters
+    ----------
+    curve_fit : CurveFit
+        From :func:`skin_indent.fitting.fit`.
+    path : path
+        The CSV (written atomically, mode 0644 under the usual umask).
+    provenance : dict, optional
+        :func:`skin_indent.provenance.provenance`, written as ``#`` comment lines.
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    Columns ``depth_mm`` (recorded depth), ``force_mN`` (baseline removed),
+    ``model_mN``, ``residual_mN`` (= force - model), ``indentation_mm`` (depth past the
+    contact point). ``#`` lines before the header record the provenance, the sphere
+    radius (``# radius_mm: R``), the contact point, E and nu, so that
+    :func:`skin_indent.measurement.load_csv` reads the file back as a curve with its radius.
+    """
+    from ._atomic import atomic_write
+    from .provenance import provenance_comment_lines
+
+    a = fit_arrays(curve_fit)
+    lines = provenance_comment_lines(provenance) if provenance else []
+    lines += [f"# radius_mm: {curve_fit.radius_mm:.10g}",
+              f"# fit: E_kPa {curve_fit.parameters['E_kPa']:.10g}, nu {curve_fit.parameters['nu']:.10g}, "
+              f"contact_point_mm {curve_fit.contact_point_mm:.10g}, method {curve_fit.method}",
+              "depth_mm,force_mN,model_mN,residual_mN,indentation_mm"]
+    cols = ("depth_mm", "force_mN", "model_mN", "residual_mN", "indentation_mm")
+    lines += [",".join(f"{v:.12g}" for v in row) for row in zip(*(a[c] for c in cols))]
+    text = "\n".join(lines) + "\n"
+    return atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))

@@ -1,0 +1,20 @@
+"""From a recorded curve to material parameters.
+
+- :mod:`.surfaces`: which response surface serves a curve (cached or built);
+- :mod:`.identification`: the paper's identification step on a surface (Hertz start, checks,
+  the methods by name);
+- :mod:`.curve`: :func:`fit`, the user's path from a recorded curve (baseline, contact
+  point, Hertz comparison, fit quality) to a :class:`CurveFit`;
+- :mod:`.hertz`: :func:`fit_hertz`, Hertz fitted as AFM tools (nanite) fit it.
+"""
+
+from .curve import MISFIT_LIMIT, CurveFit, fit, incompressible_limit, quality
+from .hertz import fit_hertz
+from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, PAPER_TOLERANCE, check_fixed, hertz_modulus, identify,
+                       run_method, start_values)
+from .surfaces import SIMILARITY_RATIOS, check_inside, default_grid, elastic_core, surface_for, unit_surface_grid
+
+__all__ = ["METHODS", "MISFIT_LIMIT", "NEARLY_INCOMPRESSIBLE_NU", "PAPER_TOLERANCE", "SIMILARITY_RATIOS", "CurveFit",
+           "check_fixed", "check_inside", "default_grid", "elastic_core", "fit", "fit_hertz", "hertz_modulus", "identify",
+           "incompressible_limit",
+           "quality", "run_method", "start_values", "surface_for", "unit_surface_grid"]

@@ -1,0 +1,329 @@
+"""Fitting a curve as an instrument recorded it: :func:`fit` and its result :class:`CurveFit`.
+
+:func:`fit` prepares the curve (:func:`skin_indent.measurement.prepare`: approach
+segment, baseline, contact-point guess, window, radius, scale checks), fits the
+neo-Hookean half-space on a response surface with the contact point as a parameter
+where the curve starts before contact, fits Hertz to the same points for comparison,
+and judges the fit against a noise level independent of the model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..inverse import IdentificationResult
+from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, check_fixed, check_modulus_range, hertz_modulus,
+                             run_method, start_values)
+from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
+
+#: a misfit above this many times the independent noise: the model does not describe the curve
+MISFIT_LIMIT = 3.0
+#: a misfit above this many times the independent noise: the modulus itself is not to be trusted (a flag)
+MISFIT_FLAG = 10.0
+
+
+@dataclass(frozen=True, eq=False)
+class CurveFit(IdentificationResult):
+    """A fitted recorded curve: the identification (all of :class:`IdentificationResult`) plus
+    what was done to the data, Hertz's fit of the same points, and the fit's quality.
+
+    Attributes
+    ----------
+    prepared : PreparedCurve
+        Segments, baseline, contact guess and the fitted points.
+    radius_mm : float
+        Sphere radius (mm).
+    contact_point_mm, contact_point_std_mm : float
+        Contact point (recorded depth, mm) and its standard error (None if not fitted).
+    e_star_kPa, e_star_std_kPa : float
+        E* = E / (1 - nu^2) of the large-strain fit (kPa) and its standard error.
+    hertz : dict
+        Hertz's small-strain fit of the same points: ``E_star_kPa``, ``E_star_std_kPa``,
+        ``contact_point_mm``, ``rms_mN``.
+    quality : dict
+        ``noise_mN`` independent of the model and its ``noise_source``, ``misfit``
+        (RMS / noise), ``white`` (residual whiteness as in diagnosis), ``verdict``.
+    flags : tuple of str
+        Why the numbers may not be trusted (a parameter at a bound, misfit far above the
+        noise); empty when there is no such reason.
+    notes : list of str
+    """
+
+    prepared: object = None
+    radius_mm: float = math.nan
+    contact_point_mm: float = 0.0
+    contact_point_std_mm: float | None = None
+    e_star_kPa: float = math.nan
+    e_star_std_kPa: float = math.nan
+    hertz: dict = field(default_factory=dict)
+    quality: dict = field(default_factory=dict)
+    flags: tuple = ()
+    notes: list = field(default_factory=list)
+
+    @property
+    def trusted(self) -> bool:
+        """Converged and no flag."""
+        return self.success and not self.flags
+
+    @property
+    def max_depth_ratio(self) -> float:
+        """Deepest indentation over the radius, h/R, at the fitted contact point."""
+        return float((self.prepared.depth_mm.max() - self.contact_point_mm) / self.radius_mm)
+
+    @property
+    def fe_vs_hertz_percent(self) -> float:
+        """100 (E*_FE / E*_Hertz - 1): what small-strain Hertz misses at this depth."""
+        return 100.0 * (self.e_star_kPa / self.hertz["E_star_kPa"] - 1.0)
+
+    def to_dict(self) -> dict:
+        """The identification's JSON summary plus the data treatment and quality (JSON-safe)."""
+        from .._json import jsonable
+
+        p = self.prepared
+        b = p.baseline
+        out = super().to_dict()
+        out.update({
+            "radius_mm": self.radius_mm,
+            "radius_source": p.radius_source,
+            "segments": [{"kind": s.kind, "start": s.start, "stop": s.stop} for s in p.segments],
+            "loading_rows": list(p.rows),
+            "depth_mm": p.depth_mm,
+            "baseline_mN": b.offset_mN if b is not None else 0.0,
+            "baseline_tilt_mN_per_mm": b.slope_mN_per_mm if b is not None else 0.0,
+            "baseline": None if b is None else {
+                "subtracted": True, "offset_mN": b.offset_mN, "tilt_mN_per_mm": b.slope_mN_per_mm,
+                "fitted_tilt_mN_per_mm": p.baseline_fitted.slope_mN_per_mm,
+                "fitted_tilt_std_mN_per_mm": p.baseline_fitted.slope_std_mN_per_mm,
+                "noise_mN": b.noise_mN, "n_points": b.n_points, "depth_range_mm": list(b.depth_range_mm)},
+            "contact_mode": p.contact_mode,
+            "contact_point_mm": self.contact_point_mm,
+            "contact_point_std_mm": self.contact_point_std_mm,
+            "contact_point_guess_mm": p.contact_guess_mm,
+            "max_depth_ratio": self.max_depth_ratio,
+            "E_star_kPa": self.e_star_kPa,
+            "E_star_std_kPa": self.e_star_std_kPa,
+            "hertz": dict(self.hertz),
+            "fe_vs_hertz_percent": self.fe_vs_hertz_percent,
+            "quality": dict(self.quality),
+            "flags": list(self.flags),
+            "notes": list(self.notes),
+        })
+        return jsonable(out)
+
+    def report(self, digits: int = 5) -> str:
+        """Readable summary: segments, baseline, contact point, fit, Hertz comparison, quality."""
+        p = self.prepared
+        seg = ", ".join(f"{s.kind} rows {s.start}-{s.stop}" for s in p.segments)
+        lines = [f"segments: {seg}; fitting the approach"]
+        b = p.baseline
+        if b is None:
+            why = "contact at recorded depth 0" if p.contact_mode == "origin" else "no pre-contact part"
+            lines.append(f"baseline: none subtracted ({why}; the force is taken as tared)")
+        else:
+            tilt = (f"tilt {b.slope_mN_per_mm:.4g} mN/mm" if b.slope_mN_per_mm else
+                    f"tilt 0 (fitted {p.baseline_fitted.slope_mN_per_mm:.3g} +/- "
+                    f"{p.baseline_fitted.slope_std_mN_per_mm:.2g} mN/mm, not significant)")
+            lines.append(f"baseline: subtracted F = offset + tilt * depth: offset {b.offset_mN:.4g} mN, {tilt} "
+                         f"(robust fit of {b.n_points} pre-contact points, noise {b.noise_mN:.3g} mN)")
+        if p.contact_mode == "fit":
+            lines.append(f"contact point: {self.contact_point_mm:.6g} +/- {self.contact_point_std_mm:.2g} mm "
+                         f"(fitted jointly; first guess {p.contact_guess_mm:.6g} mm from the deviation from "
+                         "the baseline)")
+        elif p.contact_mode == "fixed":
+            lines.append(f"contact point: {self.contact_point_mm:.6g} mm (fixed)")
+        else:
+            lines.append("contact point: recorded depth 0 (the curve starts in contact)")
+        lines.append(super().report(digits))
+        h = self.hertz
+        lines.append(f"E* = E/(1-nu^2): large-strain FE {self.e_star_kPa:.5g} +/- {self.e_star_std_kPa:.2g} kPa, "
+                     f"Hertz (small strain, same points) {h['E_star_kPa']:.5g} +/- {h['E_star_std_kPa']:.2g} kPa: "
+                     f"FE differs from Hertz by {self.fe_vs_hertz_percent:+.1f}% at h/R up to "
+                     f"{self.max_depth_ratio:.3g}")
+        q = self.quality
+        if q:
+            lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN:.3g} mN = {q['misfit']:.2g} x the noise "
+                         f"{q['noise_mN']:.3g} mN from the {q['noise_source']}; residual "
+                         f"{'white' if q['white'] else 'structured'})")
+        lines.extend(f"flag: {f}" for f in self.flags)
+        lines.extend(f"note: {n}" for n in self.notes)
+        return "\n".join(lines)
+
+    __str__ = report
+
+
+def _e_star(result) -> tuple[float, float]:
+    """E / (1 - nu^2) and its delta-method standard error from the free-parameter covariance."""
+    E, nu = result.parameters["E_kPa"], result.parameters["nu"]
+    grad = {"E_kPa": 1 / (1 - nu**2), "nu": 2 * E * nu / (1 - nu**2) ** 2}
+    g = np.array([grad.get(n, 0.0) for n in result.free_names])
+    var = float(g @ np.asarray(result.covariance) @ g)
+    return E / (1 - nu**2), math.sqrt(var) if var >= 0 else math.nan
+
+
+def quality(prepared, residual_mN, n_free: int) -> dict:
+    """The fit's misfit against a noise level independent of the model, and its whiteness."""
+    from ..diagnosis.residuals import analyse_residuals
+
+    try:
+        noise, source = prepared.noise_mN()
+    except ValueError:
+        return {}
+    r = np.asarray(residual_mN, dtype=float)
+    rms = float(np.sqrt(np.mean(r**2)))
+    analysis = analyse_residuals(r, noise, n_free)
+    misfit = rms / noise
+    if misfit > MISFIT_LIMIT:
+        verdict = "misfit far above the noise: the model does not describe this curve; try `skin-indent diagnose`"
+    elif not analysis.white:
+        verdict = "structured misfit: try `skin-indent diagnose`"
+    else:
+        verdict = "fits to the noise"
+    return {"noise_mN": noise, "noise_source": source, "misfit": misfit, "white": bool(analysis.white),
+            "verdict": verdict}
+
+
+def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = "auto", fixed: dict | None = None,
+        radius_mm: float | None = None, x0=None, tol: float | None = None, noise_mN: float | None = None,
+        context=None, mesh: str = "medium") -> CurveFit:
+    """Fit a recorded curve with the large-strain neo-Hookean half-space (and Hertz, for comparison).
+
+    Parameters
+    ----------
+    data : Measurement or PreparedCurve
+        The whole curve as recorded (approach, hold, retract; any baseline; contact
+        anywhere), or a curve already prepared with :func:`skin_indent.measurement.prepare`.
+    surface : ResponseSurface, optional
+        A neo-Hookean surface (any radius: rescaled by similarity); default found in the
+        cache or built (``context``, ``mesh``).
+    method : {"ekf-paper", "ekf", "lsq"}
+    window : (float, float), optional
+        Indentation depths past the contact point (mm).
+    contact : {"auto", "fit", "origin"}
+        See :func:`skin_indent.measurement.prepare`.
+    fixed : dict, optional
+        ``{"E_kPa": ..., "nu": ..., "offset_mm": ...}`` held fixed (``offset_mm``: the
+        contact point, recorded depth in mm). ``nu = 0.5`` is the incompressible limit
+        of the compressible finite-element law (see :func:`incompressible_limit`).
+    radius_mm : float, optional
+        Sphere radius (mm); default the measurement's, else the skin default 6.22 mm.
+    x0 : array_like, optional
+        Start (E_kPa, nu); default a Hertz estimate.
+    tol, noise_mN : float, optional
+        Stop rule of the filters; a known noise level (mN).
+    context : Context, optional
+        Where surfaces are cached and built.
+    mesh : str
+        Mesh of the finite-element runs behind a built surface.
+
+    Returns
+    -------
+    CurveFit
+
+    Examples
+    --------
+    >>> import skin_indent as si
+    >>> m = si.load_csv(si.bundled_path("forearm_like.csv"), radius_mm=6.22)
+    >>> result = si.fit(m, window=(0.05, 0.6))                        # doctest: +SKIP
+    >>> result.parameters["E_kPa"], result.quality["verdict"]          # doctest: +SKIP
+    """
+    from ..measurement import PreparedCurve, prepare
+    from ..models import ComposedModel, HertzModel
+
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    fixed = dict(fixed or {})
+    if fixed.get("nu") == 0.5:
+        return incompressible_limit(data, surface, method, window=window, contact=contact, fixed=fixed,
+                                    radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context, mesh=mesh)
+    if isinstance(data, PreparedCurve):
+        prepared = data
+    else:
+        prepared = prepare(data, window=window, contact=contact, contact_mm=fixed.get("offset_mm"),
+                           radius_mm=radius_mm)
+    radius = prepared.radius_mm
+    if surface is None:
+        depth = prepared.max_indentation_mm
+        if prepared.contact_mode == "fit":  # room for the contact point to move earlier than its first guess
+            depth = max(depth, min(1.5 * depth, SIMILARITY_RATIOS[-1] * radius))
+        surface = surface_for(radius, depth, context=context, mesh=mesh)
+    r_surface = surface.settings.get("radius_mm")
+    if r_surface is not None and abs(r_surface / radius - 1) > 1e-9:
+        surface = surface.at_radius(radius)
+    check_fixed(fixed, surface)
+    mode, c0 = prepared.contact_mode, prepared.contact_guess_mm
+    h_load, F_load = prepared.loading()
+    check_inside(surface, h_load)
+    nu0 = fixed.get("nu", 0.4)
+    e_star0 = hertz_modulus(h_load, F_load, radius)
+    check_modulus_range(e_star0, surface, nu0)
+    if x0 is None:
+        x0 = start_values(surface, h_load, F_load, radius, nu=nu0)
+    x0 = np.asarray(x0, dtype=float)
+    hertz_base = HertzModel(radius, (e_star0 * 1e-3, e_star0 * 1e3), surface.depth_range)
+    if mode == "fit":  # the contact point is fitted with the material
+        model = ComposedModel(surface, ("offset",), prepared)
+        hertz_model = ComposedModel(hertz_base, ("offset",), prepared)
+        x0, hertz_x0 = np.r_[x0[:2], c0], np.array([e_star0, c0])
+        depth, F = prepared.depth_mm, prepared.force_mN
+    else:
+        model, hertz_model = surface, hertz_base
+        depth, F, hertz_x0 = h_load, F_load, np.array([e_star0])
+        fixed.pop("offset_mm", None)
+    result = run_method(model, depth, F, x0, method, fixed=fixed, tol=tol, noise_mN=noise_mN)
+    hz = run_method(hertz_model, depth, F, hertz_x0, "lsq")
+    contact_sd = None
+    if mode == "fit":
+        contact, contact_sd = result.parameters["offset_mm"], result.std.get("offset_mm")
+    else:
+        contact = c0
+    e_star, e_star_sd = _e_star(result)
+    hertz = {"E_star_kPa": hz.parameters["E_star_kPa"], "E_star_std_kPa": hz.std["E_star_kPa"],
+             "contact_point_mm": hz.parameters.get("offset_mm", c0), "rms_mN": hz.rms_mN}
+    notes = list(prepared.notes)
+    if "nu" in fixed:
+        notes.append(f"nu fixed at {fixed['nu']:g}; E = {result.parameters['E_kPa']:.5g} kPa")
+    flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
+             for name in result.info.get("active_bounds", ())]
+    q = quality(prepared, result.residuals_mN, result.n_free)
+    if q and q["misfit"] > MISFIT_FLAG:
+        flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
+                     "this curve and its modulus is not to be trusted")
+    base = {f.name: getattr(result, f.name) for f in dataclasses.fields(IdentificationResult)}
+    return CurveFit(**base, prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
+                    contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
+                    e_star_std_kPa=e_star_sd, hertz=hertz, quality=q, flags=tuple(flags), notes=notes)
+
+
+#: the two nu of the compressible law the incompressible limit is extrapolated from
+LIMIT_NU = (0.49, NEARLY_INCOMPRESSIBLE_NU)
+
+
+def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> CurveFit:
+    """:func:`fit` with nu = 0.5: the incompressible limit of the compressible finite-element law.
+
+    The law needs nu < 0.5, but its force converges as nu -> 0.5 at fixed
+    E* = E / (1 - nu^2) (the volumetric term only stiffens what is already nearly
+    incompressible). The curve is fitted at nu = 0.49 and 0.499, E* is extrapolated
+    linearly in nu to 0.5, and E = 0.75 E*. The result is the fit at 0.499 with E, its
+    standard deviation and nu replaced, and a note giving the size of the extrapolation.
+    Checked against Hertz at small depth and against nu = 0.499 in ``tests/test_api.py``.
+    """
+    fixed = dict(kwargs.pop("fixed"))
+    fits = {nu: fit(data, surface, method, fixed={**fixed, "nu": nu}, **kwargs) for nu in LIMIT_NU}
+    lo, hi = LIMIT_NU
+    e_lo, e_hi = fits[lo].e_star_kPa, fits[hi].e_star_kPa
+    e_star = e_hi + (e_hi - e_lo) * (0.5 - hi) / (hi - lo)
+    near = fits[hi]
+    E = 0.75 * e_star
+    scale = E / near.parameters["E_kPa"]
+    parameters = {**near.parameters, "E_kPa": E, "nu": 0.5}
+    std = {k: (v * scale if k == "E_kPa" else v) for k, v in near.std.items()}
+    note = (f"nu = 0.5: the incompressible limit, E* extrapolated from nu = {lo:g} ({e_lo:.5g} kPa) and {hi:g} "
+            f"({e_hi:.5g} kPa) to {e_star:.5g} kPa ({100 * (e_star / e_hi - 1):+.2g}% from nu = {hi:g})")
+    notes = [n for n in near.notes if not n.startswith("nu fixed")] + [note]
+    return dataclasses.replace(near, parameters=parameters, std=std, e_star_kPa=e_star,
+                               e_star_std_kPa=near.e_star_std_kPa * e_star / e_hi, notes=notes)

@@ -1,0 +1,133 @@
+"""Which response surface serves a curve: found in the cache, or built (and cached).
+
+- :func:`surface_for`: the neo-Hookean surface F(h; E, nu) for a sphere and a depth
+  range; one unit-radius surface serves every radius by the exact similarity
+  F = E R^2 phi(h/R, nu).
+- :func:`elastic_core`: the surface a fitted model needs for its elastic effects (none:
+  the neo-Hookean surface; one: an effect surface over its axes), on a grid sized to
+  the curve (depths, the E range around its Hertz estimate).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..context import Context, context_of
+from ..response_surface import ResponseSurface, SurfaceGrid, default_settings
+
+#: Depth ceilings h/R of the unit-radius surfaces that :func:`surface_for` reuses for
+#: every radius (the mesh is designed for the ceiling: the smallest one that covers
+#: the data keeps the contact region finely resolved).
+SIMILARITY_RATIOS = (0.1, 0.2, 0.5)
+#: nu nodes of the effect surfaces (skin is nearly incompressible; E* barely depends on nu there)
+EFFECT_NU = (0.3, 0.42, 0.46, 0.49)
+#: nu nodes of the neo-Hookean surface of a fitted model
+BASE_NU = tuple(np.linspace(0.2, 0.49, 6))
+#: the depth ranges surfaces are built for, per decade (mm): curves share surfaces and runs
+NICE_DEPTHS = (1.0, 1.25, 1.6, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
+
+
+def default_grid(max_depth_mm: float, n_depth: int = 100) -> SurfaceGrid:
+    """The paper's grid (8 E x 6 nu) reaching at least ``max_depth_mm`` (0.6 mm or more)."""
+    depth = max(0.6, math.ceil(max_depth_mm / 0.05 - 1e-9) * 0.05)
+    return SurfaceGrid.paper(depth_max_mm=depth, n_depth=n_depth)
+
+
+def unit_surface_grid(depth_ratio_max: float, n_depth: int = 100) -> SurfaceGrid:
+    """The unit-radius grid (R = 1 mm, depths = h/R) of :meth:`SurfaceGrid.unit_radius`."""
+    return SurfaceGrid.unit_radius(depth_ratio_max, n_depth)
+
+
+def surface_for(radius_mm: float, max_depth_mm: float, *, grid: SurfaceGrid | None = None, path=None,
+                context: Context | None = None, mesh: str = "medium") -> ResponseSurface:
+    """Load or build the neo-Hookean response surface for a sphere and depth range.
+
+    Without ``grid`` and ``path``, and for ``max_depth_mm / radius_mm <= 0.5``, one
+    unit-radius surface (R = 1 mm, depths h/R up to the smallest of
+    :data:`SIMILARITY_RATIOS` that covers the data) is loaded or built once and scaled
+    to ``radius_mm`` (:meth:`ResponseSurface.at_radius`): skin (R = 6 mm) and AFM
+    (R = 20 um) curves share it. With ``grid`` (or ``path``), or deeper than h/R = 0.5,
+    the surface is built for this radius directly.
+
+    Parameters
+    ----------
+    radius_mm : float
+        Sphere radius R (mm).
+    max_depth_mm : float
+        Deepest indentation depth to cover (mm).
+    grid : SurfaceGrid, optional
+        Explicit grid at this radius (default: the similarity path above).
+    path : path, optional
+        Surface file (.npz) to load or write.
+    context : Context, optional
+        Cache folder, executor and progress of the builds.
+    mesh : str
+        Mesh preset of the finite-element runs (``"coarse"``, ``"medium"``, ``"fine"``).
+    """
+    kw = context_of(context).build_options()
+    ratio = float(max_depth_mm) / float(radius_mm)
+    ceiling = next((r for r in SIMILARITY_RATIOS if ratio <= r * (1 + 1e-9)), None)
+    if grid is None and path is None and ceiling is not None:
+        unit = ResponseSurface.load_or_build(unit_surface_grid(ceiling), default_settings(1.0, mesh=mesh), **kw)
+        return unit.at_radius(radius_mm)
+    grid = grid or default_grid(max_depth_mm)
+    return ResponseSurface.load_or_build(grid, default_settings(radius_mm=radius_mm, mesh=mesh), path=path, **kw)
+
+
+def check_inside(surface, depth_mm) -> None:
+    """One-line error when measured depths lie beyond the surface."""
+    lo, hi = surface.depth_range
+    if np.max(depth_mm) > hi * (1 + 1e-9):
+        origin = getattr(surface, "settings", {}).get("similarity")
+        scaled = (f" (a surface for R = {origin['radius_mm']:g} mm scaled to R = {surface.settings['radius_mm']:g} mm)"
+                  if origin else "")
+        raise ValueError(f"measured depth reaches {np.max(depth_mm):.4g} mm, beyond the surface's {hi:.4g} mm"
+                         f"{scaled}: build a deeper surface or narrow the window")
+
+
+def nice_depth(depth_mm: float) -> float:
+    """The smallest of :data:`NICE_DEPTHS` x 10^k that reaches ``depth_mm`` (mm)."""
+    if not (math.isfinite(depth_mm) and depth_mm > 0):
+        raise ValueError(f"the curve reaches no positive depth (got {depth_mm} mm)")
+    k = math.floor(math.log10(depth_mm))
+    for m in (*NICE_DEPTHS, 10.0):
+        top = float(f"{m * 10.0**k:.6g}")
+        if top >= depth_mm * (1 - 1e-12):
+            return top
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def curve_grid(e_star_kPa: float, depth_max_mm: float, nu) -> SurfaceGrid:
+    """100 depths to a :func:`nice_depth`, 8 E from E*/30 to 30 E* (3 digits), the ``nu`` nodes."""
+    top = nice_depth(depth_max_mm)
+    E = np.geomspace(e_star_kPa / 30.0, e_star_kPa * 30.0, 8)
+    E = np.array([float(f"{e:.3g}") for e in E])
+    return SurfaceGrid(np.linspace(top / 100, top, 100), E, np.asarray(nu, dtype=float))
+
+
+def elastic_core(effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: float,
+                 context: Context | None = None, mesh: str = "coarse"):
+    """The elastic force model of a fitted model with these effects (see the module docstring).
+
+    Raises
+    ------
+    ValueError
+        When more than one effect acts on the elastic response (no surface combines them).
+    """
+    from ..effects import ELASTIC, effect
+
+    elastic = [e for e in (effect(x) for x in effects) if e.stage == ELASTIC]
+    kw = context_of(context).build_options()
+    if not elastic:
+        grid = curve_grid(e_star_kPa, 1.25 * max_depth_mm, BASE_NU)
+        return ResponseSurface.load_or_build(grid, default_settings(radius_mm=radius_mm, mesh=mesh), **kw)
+    if len(elastic) > 1:
+        raise ValueError(f"no surface combines {' and '.join(e.name for e in elastic)} yet: add one of them")
+    from ..response_surface.effect_surface import EffectSurface
+
+    e = elastic[0]
+    grid = curve_grid(e_star_kPa, max_depth_mm, EFFECT_NU)
+    return EffectSurface.build((e.name,), tuple(e.surface_axes(grid.depth_mm[-1])), grid, radius_mm=radius_mm,
+                               mesh=mesh, **kw)

@@ -1,0 +1,12 @@
+"""Force models for fits: adapters that implement the :class:`~skin_indent.inverse.ForceModel` protocol.
+
+- :class:`ComposedModel`: an elastic core (a response surface over E, nu and the
+  elastic effects) plus the effects that move the depth (the contact point) or act on
+  the force (relaxation, adhesion, ...), bound to one measured history;
+- :class:`HertzModel`: Hertz's sphere, for comparison.
+"""
+
+from .composed import ComposedModel
+from .hertz import HertzModel
+
+__all__ = ["ComposedModel", "HertzModel"]

@@ -1,0 +1,156 @@
+"""A fitted force model made of an elastic core and effects, bound to one measured history."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..effects import DEPTH, ELASTIC, STAGE_ORDER, WEIGHED, Evaluation, effect
+
+
+class ComposedModel:
+    """Elastic core plus effects, evaluated on one measured history.
+
+    The force at the recorded depths is computed in stages (see
+    :class:`~skin_indent.effects.Effect`): effects of the :data:`DEPTH` stage move the
+    depth below the contact point (``offset``), the core gives the elastic force where
+    that depth is positive, and effects of the later stages act on the force in order
+    (``viscoelastic`` along the time history, then ``adhesion``, ...).
+
+    Implements the force-model protocol of :mod:`skin_indent.inverse`
+    (``parameter_names``, ``bounds``, ``force``, ``jacobian``).
+
+    Parameters
+    ----------
+    core : ForceModel
+        Elastic force F(h; E_kPa, nu, elastic fit parameters) for depths h > 0 (mm): a
+        response surface, or an effect surface for the elastic effects of the model.
+    effects : sequence of str or Effect
+        All effects of the model (the elastic ones are in ``core`` already).
+    data : PreparedCurve
+        The measured history (``depth_mm``, ``time_s``, ``radius_mm``) and what the
+        effects' bounds depend on.
+    """
+
+    def __init__(self, core, effects, data):
+        self.core = core
+        self.effects = tuple(effect(e) for e in effects)
+        self.data = data
+        self.depth_mm = np.asarray(data.depth_mm, dtype=float)
+        self.time_s = None if data.time_s is None else np.asarray(data.time_s, dtype=float)
+        self.radius_mm = float(data.radius_mm)
+        self.depth_range = core.depth_range
+        names = list(core.parameter_names)
+        lo, hi = (list(np.asarray(b, dtype=float)) for b in core.bounds)
+        self.acting = sorted((e for e in self.effects if e.stage not in (ELASTIC, WEIGHED)),
+                             key=lambda e: STAGE_ORDER.index(e.stage))
+        self._slices = []
+        for e in self.acting:
+            bounds = e.fit_bounds(data, reach_mm=float(core.depth_range[1]))
+            start = len(names)
+            for k in e.fit_names:
+                names.append(k)
+                lo.append(bounds[k][0])
+                hi.append(bounds[k][1])
+            self._slices.append((e, slice(start, len(names))))
+        self.parameter_names = tuple(names)
+        self.bounds = (np.array(lo), np.array(hi))
+        self._n_core = len(core.parameter_names)
+        self._linear_in_E = all(e.linear_in_E for e in self.acting)
+        self._cache: dict = {}
+
+    @property
+    def name(self) -> str:
+        return "neo-hooke" + "".join(f"+{e.name}" for e in self.effects)
+
+    def _check_depth(self, depth_mm):
+        d = np.asarray(depth_mm, dtype=float)
+        if d.shape != self.depth_mm.shape or not np.array_equal(d, self.depth_mm):
+            raise ValueError(f"model {self.name} is bound to its measured history: pass its own depths")
+
+    def evaluate(self, theta) -> Evaluation:
+        """All stages at the parameters ``theta`` (the force is ``.force_mN``)."""
+        theta = np.asarray(theta, dtype=float)
+        ev = Evaluation(self.depth_mm, self.time_s, self.depth_mm.copy(), self.radius_mm, cache=self._cache)
+        values = [(e, dict(zip(e.fit_names, theta[s]))) for e, s in self._slices]
+        for e, fit in values:
+            if e.stage == DEPTH:
+                e.apply(ev, fit)
+        h = ev.h_mm
+        touch = h > 0
+        force = np.zeros_like(h)
+        if np.any(touch):
+            top = self.depth_range[1]
+            if h[touch].max() > top * (1 + 1e-9):
+                raise ValueError(f"depth minus offset reaches {h.max():.4g} mm, beyond the surface's {top:.4g} mm")
+            force[touch] = self.core.force(h[touch], theta[: self._n_core])
+        ev.force_mN = force
+        for e, fit in values:
+            if e.stage != DEPTH:
+                e.apply(ev, fit)
+        return ev
+
+    def force(self, depth_mm, theta) -> np.ndarray:
+        self._check_depth(depth_mm)
+        return self.evaluate(theta).force_mN
+
+    def jacobian(self, depth_mm, theta) -> np.ndarray:
+        """Central differences (relative steps; one-sided at the box faces); dF/dE exact where F is linear in E."""
+        theta = np.asarray(theta, dtype=float)
+        lo, hi = self.bounds
+        J = np.empty((self.depth_mm.size, theta.size))
+        for i in range(theta.size):
+            if i == 0 and self._linear_in_E:  # F is exactly proportional to the modulus of the top material
+                J[:, 0] = self.force(depth_mm, theta) / theta[0]
+                continue
+            span = hi[i] - lo[i]
+            step = 1e-5 * max(abs(theta[i]), 1e-2 * span if math.isfinite(span) else 1e-3)
+            up, down = theta.copy(), theta.copy()
+            up[i] = min(theta[i] + step, hi[i])
+            down[i] = max(theta[i] - step, lo[i])
+            J[:, i] = (self.force(depth_mm, up) - self.force(depth_mm, down)) / (up[i] - down[i])
+        return J
+
+    def model_parameters(self, x) -> dict:
+        """Model parameters (names with units, as users read them) of the fit vector ``x``."""
+        x = dict(zip(self.parameter_names, np.asarray(x, dtype=float)))
+        E = x["E_kPa"]
+        out = {"E_kPa": E, "nu": x["nu"]}
+        for e in self.effects:
+            if e.stage == WEIGHED:
+                continue
+            if all(k in x for k in e.fit_names):
+                out.update(e.from_fit({k: x[k] for k in e.fit_names}, E))
+        return out
+
+    def reported(self, x, cov) -> tuple[dict, dict]:
+        """Model parameters and their standard deviations (delta method with ``cov`` of ``x``)."""
+        x = np.asarray(x, dtype=float)
+        params = self.model_parameters(x)
+        names = list(params)
+        C = np.asarray(cov, dtype=float) if cov is not None else np.full((x.size, x.size), np.nan)
+        G = np.zeros((len(names), x.size))
+        for j in range(x.size):
+            step = 1e-6 * max(abs(x[j]), 1e-6)
+            up, down = x.copy(), x.copy()
+            up[j] += step
+            down[j] -= step
+            a, b = self.model_parameters(up), self.model_parameters(down)
+            for i, n in enumerate(names):
+                diff = a[n] - b[n]
+                G[i, j] = diff / (2 * step) if math.isfinite(diff) else 0.0
+        std = {}
+        for i, n in enumerate(names):
+            g = G[i]
+            used = g != 0
+            if not math.isfinite(params[n]):
+                std[n] = math.inf
+                continue
+            if not np.any(used):
+                std[n] = 0.0
+                continue
+            sub = C[np.ix_(used, used)]
+            var = float(g[used] @ sub @ g[used]) if np.all(np.isfinite(sub)) else math.nan
+            std[n] = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
+        return params, std
