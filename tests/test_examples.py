@@ -103,6 +103,15 @@ def test_ex07_dask_cluster(run_example):
     assert g["max_difference"] == 0.0  # where the runs happen does not change them
 
 
+def test_ex08_batch(run_example):
+    g = run_example("ex08_batch.py")
+    # a folder of real AFM curves in: one row per curve, each fitted, a table with its provenance
+    rows = g["rows"]
+    assert len(rows) >= 2 and all(r.error is None for r in rows)
+    assert all(0.01 < r.E_kPa < 1.0 for r in rows)  # soft cells and gels: tens to hundreds of Pa
+    assert g["prov"]["inputs"] and g["tsv"].is_file()
+
+
 def _sphinx_build(out: Path, *options: str) -> subprocess.CompletedProcess:
     cmd = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-b", "html", *options,
            str(DOCS), str(out / "html")]

@@ -40,6 +40,9 @@ READABLE_SUFFIXES = (".csv", ".tsv", ".txt", ".jpk-force", ".jpk-force-map", ".j
                      ".ibw", ".tab", ".h5", ".zip")
 
 
+_OUTPUT_MARK = b"# written by skin_indent"
+
+
 @dataclass(frozen=True)
 class BatchRow:
     """The result of one curve of a batch (or the error of a file that gave no curve).
@@ -199,13 +202,24 @@ def _one_line(err: BaseException) -> str:
     return f"{type(err).__name__}: {text}" if text else type(err).__name__
 
 
+def _written_by_us(path: Path) -> bool:
+    """True for an output of this package (a TSV table or fit CSV starts with its provenance line)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(len(_OUTPUT_MARK)) == _OUTPUT_MARK
+    except OSError:
+        return False
+
+
 def expand_paths(paths) -> list[Path]:
     """Files to read: a file as given, a folder's files with a readable suffix (sorted).
 
     Parameters
     ----------
     paths : path or iterable of paths
-        Files and folders (a folder is not searched recursively; hidden files are left out).
+        Files and folders. A folder is not searched recursively; its hidden files and the
+        package's own outputs (a results table or fit CSV written there, recognised by
+        their first line ``# written by skin_indent``) are left out.
 
     Returns
     -------
@@ -219,7 +233,7 @@ def expand_paths(paths) -> list[Path]:
     for p in paths:
         p = Path(os.fspath(p))
         found = (sorted(q for q in p.iterdir() if q.is_file() and not q.name.startswith(".")
-                        and any(q.name.lower().endswith(s) for s in READABLE_SUFFIXES))
+                        and any(q.name.lower().endswith(s) for s in READABLE_SUFFIXES) and not _written_by_us(q))
                  if p.is_dir() else [p])
         for q in found:
             key = os.path.abspath(q)
@@ -258,12 +272,12 @@ def _surface_hash(surface) -> str:
     return str(origin["hash"]) if origin and "hash" in origin else str(getattr(surface, "hash", ""))
 
 
-def _fit_task(prepared, surface, method, fixed, tol):
+def _fit_task(prepared, surface, method, fixed, tol, x0=None):
     """One fit in a worker: ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
     from .fitting import fit
 
     try:
-        return fit(prepared, surface, method, fixed=dict(fixed), tol=tol), None
+        return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0), None
     except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
         return None, _one_line(err)
 
@@ -291,7 +305,7 @@ def _plot_name(row: BatchRow) -> str:
 # ------------------------------------------------------------------ fit_many
 def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None, window=None,
              contact: str = "auto", fixed: dict | None = None, method: str = "lsq", mesh: str = "medium",
-             context=None, progress: bool = True, surface=None, tol: float | None = None,
+             context=None, progress: bool = True, surface=None, tol: float | None = None, x0=None,
              keep_fits: bool = False, plot_dir=None, command=None) -> BatchResult:
     """Fit every curve of every file, in parallel; one :class:`BatchRow` per curve.
 
@@ -322,13 +336,15 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         available cores, at most one per curve; 1 runs here), or the Dask ``client`` or
         ``scheduler``.
     progress : bool
-        Show a progress bar of the fits (tqdm, on stderr).
+        Show a progress bar of the fits (tqdm, on stderr; none for a single curve).
     surface : ResponseSurface, optional
         One neo-Hookean surface for every curve (rescaled to each radius by
         similarity); default: found in the cache or built, once per group of curves
         (see the module docstring).
     tol : float, optional
         Stop rule of the filters.
+    x0 : array_like, optional
+        Start values (E_kPa, nu) of every fit; default a Hertz estimate per curve.
     keep_fits : bool
         Keep each :class:`~skin_indent.fitting.CurveFit` in its row (``row.fit``).
     plot_dir : path, optional
@@ -405,16 +421,19 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         for i in members:
             surface_of[i] = s
 
-    settings = {"radius_mm": radius_mm, "index": index, "window_mm": window, "contact": contact, "fixed": fixed,
-                "method": method, "mesh": mesh, "tol": tol}
+    radii = sorted({rows[i][1].radius_mm for i in pending if isinstance(rows[i], tuple)})
+    settings = {"radius_mm": radius_mm, "radii_mm": radii, "index": index, "window_mm": window, "contact": contact,
+                "fixed": fixed, "method": method, "mesh": mesh, "tol": tol, "x0": x0,
+                "surface": None if surface is None else "given (see surface)"}
     prov = make_provenance(command=command, inputs=files, settings=settings, surface=surfaces)
 
-    tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol)) for i in pending if i in surface_of]
+    x0 = None if x0 is None else np.asarray(x0, dtype=float)
+    tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol, x0)) for i in pending if i in surface_of]
     if tasks:
         from tqdm.auto import tqdm
 
         executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
-        bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress)
+        bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress or len(tasks) < 2)
         try:
             for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
                 base, prepared = rows[i]
@@ -488,7 +507,7 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
     Notes
     -----
     Columns :data:`TSV_COLUMNS`: units in the names (mm, mN, kPa); empty cells for
-    missing values, ``nan`` for numbers not computed; ``flags`` joined by `` | ``.
+    missing values, ``nan`` for numbers not computed; ``flags`` joined by ``" | "``.
     ``#`` lines come first (:func:`skin_indent.provenance.provenance_comment_lines`;
     read them back with :func:`skin_indent.provenance.read_provenance`), so
     ``pandas.read_csv(path, sep="\\t", comment="#")`` reads the table.

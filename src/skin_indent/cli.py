@@ -99,7 +99,6 @@ def _run_simulate(args) -> int:
     from .mechanics.contact import SphericalIndenter
     from .measurement import load_csv
     from .protocol import Protocol
-    from .simulate import simulate
 
     material = _sample(args)
     indenter = SphericalIndenter(args.radius)
@@ -115,6 +114,8 @@ def _run_simulate(args) -> int:
     elif args.unload or not material.path_independent or args.friction > 0:
         protocol = Protocol.ramp(args.depth, args.points, args.speed, unload=args.unload)
     print(f"model: {material.name} {material.parameters()}; sphere R = {args.radius:g} mm", flush=True)
+    from .simulate import simulate  # the finite-element machinery, after the first line
+
     curve = simulate(material, indenter, args.depth, args.points, mesh=args.mesh, increments=args.increments,
                      protocol=protocol, offset_mm=args.offset, keep_state=args.vtu is not None, contact=contact)
     curve.to_csv(args.out)
@@ -232,7 +233,17 @@ def _add_fit(sub):
                                    "time_s; or an instrument file such as JPK .jpk-force with the optional "
                                    "afmformats package). A curve that starts before contact gets its force baseline "
                                    "subtracted (and reported) and its contact point fitted with the material.")
-    p.add_argument("data", type=Path, help="measurement CSV (or .jpk-force etc. with afmformats installed)")
+    p.add_argument("data", type=Path, nargs="+",
+                   help="measurement files or folders: CSV, Chiaro .txt, or .jpk-force / .jpk-force-map etc. with "
+                        "afmformats installed; several curves (a folder, a force map) are fitted in parallel")
+    p.add_argument("--out", type=Path, default=None, help="write one TSV row per curve, with a provenance header")
+    p.add_argument("--index", type=int, default=None, help="fit only curve N (from 0) of each file")
+    p.add_argument("--plot", type=Path, default=None, metavar="DIR",
+                   help="write a PNG and a CSV (depth, force, model, residual) per curve, and summary.png, into DIR")
+    p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="medium",
+                   help="mesh of the finite-element runs behind a built surface (default medium)")
+    p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="fit on this Dask scheduler")
     p.add_argument("--method", choices=("ekf-paper", "ekf", "lsq"), default="lsq",
                    help="ekf-paper: the paper's filter; ekf: better-conditioned filter; lsq: least squares (default)")
     p.add_argument("--surface", type=Path, default=None,
@@ -250,9 +261,10 @@ def _add_fit(sub):
                    help="contact point: auto (fitted if the curve has a pre-contact baseline, else recorded depth "
                         "0; default), fit (always fitted), origin (recorded depth 0)")
     p.add_argument("--tol", type=float, default=None, help="stop rule C of the filters (default 1e-6)")
-    p.add_argument("--strict", action="store_true",
-                   help="exit with status 3 when a result is flagged as not to be trusted (a parameter at a bound, "
-                        "a misfit over 10 times the noise); flags are always printed as warnings")
+    p.add_argument("--strict", action=argparse.BooleanOptionalAction, default=None,
+                   help="exit with status 3 when a curve failed or is flagged as not to be trusted (a parameter at a "
+                        "bound, a misfit over 10 times the noise); default on for several curves, off for one. "
+                        "Flags are always printed as warnings")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=_run_fit)
 
@@ -270,23 +282,21 @@ def _positive_radius(radius):
         raise CLIError(f"--radius must be a positive number of mm, got {radius:g}")
 
 
+def _fit_settings(args, fixed, window) -> dict:
+    return {"radius_mm": args.radius, "window_mm": window, "method": args.method, "mesh": args.mesh,
+            "fixed": fixed, "contact": args.contact, "index": args.index}
+
+
 def _run_fit(args) -> int:
-    from ._json import dumps
     from .context import Context
-    from .fitting import fit
-    from .measurement import load_curve, prepare
+    from .measurement import load_curves
 
     _positive_radius(args.radius)
+    if args.workers is not None and args.scheduler is not None:
+        raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
     fixed = _parse_fix(args.fix)
     window = _parse_window(args.window) if args.window else None
     x0 = _parse_start(args.start) if args.start else None
-    measurement = load_curve(args.data, radius_mm=args.radius)
-    prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
-    if not args.json:
-        data = prepared.data
-        print(f"data: {args.data} ({data.n_points} loading points from {data.depth_mm[0]:.4g} to "
-              f"{data.depth_mm[-1]:.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})",
-              flush=True)
     surface = None
     if args.surface is not None:
         from .response_surface import ResponseSurface
@@ -294,6 +304,32 @@ def _run_fit(args) -> int:
         if not args.surface.is_file():
             raise CLIError(f"surface file not found: {args.surface}")
         surface = ResponseSurface.load(args.surface)
+    context = Context(workers=args.workers, scheduler=args.scheduler, progress=not args.json)
+    if len(args.data) == 1 and args.data[0].is_file() and args.out is None:
+        curves = load_curves(args.data[0], radius_mm=args.radius)
+        if len(curves) == 1 or args.index is not None:
+            if args.index is not None and not 0 <= args.index < len(curves):
+                raise CLIError(f"{args.data[0]}: --index {args.index} is out of range (the file has {len(curves)} "
+                               "curve(s))")
+            return _fit_one(args, curves[args.index or 0], surface, fixed, window, x0, context)
+    return _fit_batch(args, surface, fixed, window, x0, context)
+
+
+def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
+    """One curve: the report (or JSON), errors as one line (exit 2), flags as warnings."""
+    from ._json import dumps
+    from .fitting import fit
+    from .measurement import prepare
+    from .provenance import provenance, with_provenance
+
+    prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
+    path = args.data[0]
+    if not args.json:
+        data = prepared.data
+        print(f"data: {path} ({data.n_points} loading points from {data.depth_mm[0]:.4g} to "
+              f"{data.depth_mm[-1]:.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})",
+              flush=True)
+    if surface is not None:
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:
             try:
@@ -301,17 +337,55 @@ def _run_fit(args) -> int:
             except ValueError:
                 raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for "
                                f"{prepared.radius_mm:g} mm") from None
-    result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol,
-                 context=Context(progress=not args.json))
+    result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, context=context, mesh=args.mesh)
+    prov = provenance(inputs=[path], settings=_fit_settings(args, fixed, window), surface=result.surface)
+    if args.plot is not None:
+        from .fit_plot import plot_fit, write_fit_csv
+
+        args.plot.mkdir(parents=True, exist_ok=True)
+        plot_fit(result, args.plot / f"{path.stem}.png")
+        write_fit_csv(result, args.plot / f"{path.stem}.csv", prov)
     if args.json:
-        print(dumps(result.to_dict()))
+        print(dumps(with_provenance(result.to_dict(), prov)))
     else:
         print(result.report())
+        if args.plot is not None:
+            print(f"wrote {args.plot / (path.stem + '.png')} and {args.plot / (path.stem + '.csv')}")
     for flag in result.flags:
-        print(f"skin-indent fit: warning: {args.data}: {flag}", file=sys.stderr)
+        print(f"skin-indent fit: warning: {path}: {flag}", file=sys.stderr)
     if not result.success:
         return 1
     return 3 if (args.strict and result.flags) else 0
+
+
+def _fit_batch(args, surface, fixed, window, x0, context) -> int:
+    """Every curve of every file: one line (or TSV row) per curve; a bad file is a row, never the end."""
+    from ._json import dumps
+    from .batch import fit_many, summary_figure, write_tsv
+
+    rows = fit_many(args.data, index=args.index, radius_mm=args.radius, window=window, contact=args.contact,
+                    fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=not args.json,
+                    surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot)
+    if args.out is not None:
+        write_tsv(rows, args.out)
+    if args.plot is not None and rows:
+        summary_figure(rows, args.plot / "summary.png")
+    if args.json:
+        print(dumps({"rows": [r.to_dict() for r in rows], "provenance": rows.provenance}))
+    else:
+        for r in rows:
+            print(f"{r.label}: error: {r.error}" if r.error else
+                  f"{r.label}: E = {r.E_kPa:.5g} kPa, E* = {r.E_star_kPa:.5g} kPa, nu = {r.nu:.3g}, contact "
+                  f"{r.contact_point_mm:.6g} mm, misfit {r.misfit:.2g} x noise: {r.verdict}"
+                  + (f" [{'; '.join(r.flags)}]" if r.flags else ""))
+        print(f"{len(rows)} curves: {rows.n_failed} failed, {rows.n_flagged} flagged"
+              + (f"; wrote {args.out}" if args.out is not None else "")
+              + (f"; figures in {args.plot}" if args.plot is not None else ""))
+    for r in rows:
+        for flag in r.flags:
+            print(f"skin-indent fit: warning: {r.label}: {flag}", file=sys.stderr)
+    strict = True if args.strict is None else args.strict
+    return 3 if (strict and not rows.trusted) else 0
 
 
 def _add_diagnose(sub):

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..inverse import IdentificationResult
+from ..provenance import surface_identity
 from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, check_fixed, check_modulus_range, hertz_modulus,
                              run_method, start_values)
 from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
@@ -51,6 +52,8 @@ class CurveFit(IdentificationResult):
         Why the numbers may not be trusted (a parameter at a bound, misfit far above the
         noise); empty when there is no such reason.
     notes : list of str
+    surface : dict
+        Identity of the response surface used (``hash``, ``settings``).
     """
 
     prepared: object = None
@@ -63,6 +66,7 @@ class CurveFit(IdentificationResult):
     quality: dict = field(default_factory=dict)
     flags: tuple = ()
     notes: list = field(default_factory=list)
+    surface: dict = field(default_factory=dict)
 
     @property
     def trusted(self) -> bool:
@@ -111,6 +115,7 @@ class CurveFit(IdentificationResult):
             "quality": dict(self.quality),
             "flags": list(self.flags),
             "notes": list(self.notes),
+            "surface": dict(self.surface),
         })
         return jsonable(out)
 
@@ -295,7 +300,8 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     base = {f.name: getattr(result, f.name) for f in dataclasses.fields(IdentificationResult)}
     return CurveFit(**base, prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
                     contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
-                    e_star_std_kPa=e_star_sd, hertz=hertz, quality=q, flags=tuple(flags), notes=notes)
+                    e_star_std_kPa=e_star_sd, hertz=hertz, quality=q, flags=tuple(flags), notes=notes,
+                    surface=surface_identity(surface) or {})
 
 
 #: the two nu of the compressible law the incompressible limit is extrapolated from

@@ -6,14 +6,22 @@ scikit-fem forms) -> :mod:`.axisymmetric` (the same, fast) -> :mod:`.contact` ->
 :mod:`.predictor` / :mod:`.linear` -> :mod:`.solver` -> :mod:`.fields`.
 """
 
-from .contact import ContactLaw, SphereContact, SphericalIndenter
-from .materials import LinearElastic, Material, NeoHooke, NeoHookeStiffening, PronyTerm, Viscoelastic
-from .mesh import DEFAULT_MESH, MESH_FAMILY, IndentationMesh, MeshDesign, graded_mesh, load_mesh, save_mesh
-from .solver import ConvergenceError, IndentationProblem, NewtonReport
+# Exports are loaded on first use: the materials and the sphere need no scikit-fem, so a
+# command that only describes them starts fast.
+_EXPORTS = {
+    "ContactLaw": ".contact", "SphereContact": ".contact", "SphericalIndenter": ".contact",
+    "LinearElastic": ".materials", "Material": ".materials", "NeoHooke": ".materials",
+    "NeoHookeStiffening": ".materials", "PronyTerm": ".materials", "Viscoelastic": ".materials",
+    "DEFAULT_MESH": ".mesh", "MESH_FAMILY": ".mesh", "IndentationMesh": ".mesh", "MeshDesign": ".mesh",
+    "graded_mesh": ".mesh", "load_mesh": ".mesh", "save_mesh": ".mesh",
+    "ConvergenceError": ".solver", "IndentationProblem": ".solver", "NewtonReport": ".solver",
+}
+__all__ = list(_EXPORTS)
 
-__all__ = [
-    "ContactLaw", "SphereContact", "SphericalIndenter", "LinearElastic", "Material", "NeoHooke", "NeoHookeStiffening",
-    "PronyTerm", "Viscoelastic", "DEFAULT_MESH",
-    "MESH_FAMILY", "IndentationMesh", "MeshDesign", "graded_mesh", "load_mesh", "save_mesh",
-    "ConvergenceError", "IndentationProblem", "NewtonReport",
-]
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        import importlib
+
+        return getattr(importlib.import_module(_EXPORTS[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

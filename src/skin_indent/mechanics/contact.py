@@ -101,7 +101,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from skfem import ElementTriP2, ElementVector, FacetBasis
 
 #: 1 mJ/m^2 = 1e-3 N/m = 1e-3 mN/mm (the model's energy per area unit).
 MJ_PER_M2_IN_MN_PER_MM = 1e-3
@@ -279,6 +278,8 @@ class SphereContact:
         top = mesh.boundaries["top"]
         mid_r = mesh.p[0, mesh.facets[:, top]].mean(axis=0)
         facets = top[mid_r < reach]
+        from skfem import ElementTriP2, ElementVector, FacetBasis  # here: the sphere's data need no scikit-fem
+
         self.basis = FacetBasis(mesh, ElementVector(element or ElementTriP2()), facets=facets, intorder=intorder)
         b = self.basis
         self.element_dofs = b.element_dofs  # (12, nf)
