@@ -58,7 +58,7 @@ def _unit_surface(cache: Path, workers: int = 2):
     try:
         from skin_indent.fitting import unit_surface_grid
     except ImportError:  # the layout before skin_indent.fitting
-        from skin_indent.identify import unit_surface_grid
+        from skin_indent.fitting import unit_surface_grid
     from skin_indent.response_surface import ResponseSurface, default_settings
 
     settings = {**default_settings(1.0, mesh="coarse"), "code_version": "bench-threads"}
@@ -71,7 +71,7 @@ def case_chiaro(cache: Path) -> dict:
     try:
         from skin_indent.fitting import fit as fit_curve
     except ImportError:  # the layout before skin_indent.fitting
-        from skin_indent.fit_recorded import fit_curve
+        from skin_indent.fitting import fit as fit_curve
     from skin_indent.measurement import find_contact_point, load_csv
 
     surface = _unit_surface(cache, workers=1)  # cached: loads

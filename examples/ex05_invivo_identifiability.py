@@ -7,7 +7,7 @@ An in-vivo-like curve: estimates, uncertainty, and is nu identifiable?
    * how to read a measured curve with :func:`~skin_indent.measurement.load_csv`
      and keep the paper's fitting window with
      :func:`~skin_indent.measurement.prepare`;
-   * how to identify (E, nu) with :func:`~skin_indent.identify.identify` by the
+   * how to identify (E, nu) with :func:`~skin_indent.fitting.identify` by the
      paper's filter, the better filter and least squares, and how to estimate the
      noise from the data alone (:func:`~skin_indent.inverse.estimate_noise`);
    * what the standard errors and the correlation of a fit say, and why E* is known

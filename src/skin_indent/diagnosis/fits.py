@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..effects import ELASTIC, WEIGHED, effect
+from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, effect
 from ..inverse import IdentificationResult
 from .residuals import analyse_residuals, describe_structure
 
@@ -108,7 +108,7 @@ class Fitter:
         self._cores = {}
         self.fits: dict[tuple, Rung] = {}
         #: the contact point is a parameter of every model of a curve recorded from before contact
-        self.implicit = ("offset",) if data.contact_mode == "fit" else ()
+        self.implicit = (CONTACT_POINT.name,) if data.contact_mode == "fit" else ()
 
     def sigma(self, force) -> np.ndarray:
         return np.sqrt(self.noise_mN**2 + (MODEL_ERROR * np.abs(force)) ** 2)

@@ -38,10 +38,13 @@ from .registry import EFFECTS, effect, register, unregister
 from .stiffening import Stiffening
 from .viscoelastic import Viscoelastic
 
-for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), Offset()):
+#: the contact point as a fit parameter: every fit of a curve recorded from before contact has it
+CONTACT_POINT = Offset()
+
+for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), CONTACT_POINT):
     register(_e, replace=True)
 del _e
 
-__all__ = ["ADHESION_RANGE_MM", "BASE_PARAMETERS", "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED",
+__all__ = ["ADHESION_RANGE_MM", "BASE_PARAMETERS", "CONTACT_POINT", "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED",
            "Adhesion", "Effect", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset",
            "Stiffening", "Viscoelastic", "effect", "register", "unregister"]

@@ -236,6 +236,7 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     >>> result.parameters["E_kPa"], result.quality["verdict"]          # doctest: +SKIP
     """
     from ..measurement import PreparedCurve, prepare
+    from ..effects import CONTACT_POINT
     from ..models import ComposedModel, HertzModel
 
     if method not in METHODS:
@@ -270,8 +271,8 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     x0 = np.asarray(x0, dtype=float)
     hertz_base = HertzModel(radius, (e_star0 * 1e-3, e_star0 * 1e3), surface.depth_range)
     if mode == "fit":  # the contact point is fitted with the material
-        model = ComposedModel(surface, ("offset",), prepared)
-        hertz_model = ComposedModel(hertz_base, ("offset",), prepared)
+        model = ComposedModel(surface, (CONTACT_POINT,), prepared)
+        hertz_model = ComposedModel(hertz_base, (CONTACT_POINT,), prepared)
         x0, hertz_x0 = np.r_[x0[:2], c0], np.array([e_star0, c0])
         depth, F = prepared.depth_mm, prepared.force_mN
     else:

@@ -32,6 +32,7 @@ def fit_hertz(data, *, nu: float = 0.5) -> dict:
         ``contact_point_mm`` (recorded depth) with its standard error, ``baseline_mN`` (the
         flat line subtracted plus the fitted offset), ``rms_mN``, ``n_points``.
     """
+    from ..effects import CONTACT_POINT
     from ..effects.baseline import ForceBaseline
     from ..measurement import PreparedCurve, prepare
     from ..models import ComposedModel, HertzModel
@@ -48,7 +49,7 @@ def fit_hertz(data, *, nu: float = 0.5) -> dict:
                                 time_s=approach.time_s, kind=np.full(approach.n_points, "approach"))
     h, F = prepared.loading()
     e0 = hertz_modulus(h, F, prepared.radius_mm)
-    model = ComposedModel(HertzModel(prepared.radius_mm, (e0 * 1e-3, e0 * 1e3)), ("offset", ForceBaseline()), whole)
+    model = ComposedModel(HertzModel(prepared.radius_mm, (e0 * 1e-3, e0 * 1e3)), (CONTACT_POINT, ForceBaseline()), whole)
     r = run_method(model, whole.depth_mm, whole.force_mN, np.array([e0, prepared.contact_guess_mm, 0.0]), "lsq")
     e_star, sd = r.parameters["E_star_kPa"], r.std["E_star_kPa"]
     return {"E_kPa": e_star * (1 - nu**2), "E_kPa_std": sd * (1 - nu**2), "E_star_kPa": e_star,
