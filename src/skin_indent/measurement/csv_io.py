@@ -23,6 +23,7 @@ import numpy as np
 from .._atomic import atomic_write
 
 from ._errors import MeasurementError, _quote
+from ._files import read_bytes
 from .core import _MIN_POINTS, Measurement
 
 __all__ = ["DEPTH_COLUMNS", "FORCE_COLUMNS", "TIME_COLUMN", "load_csv", "parse_radius_comment",
@@ -104,17 +105,8 @@ def parse_radius_comment(line: str) -> float | None:
 
 
 def _read_text(path: Path) -> str:
+    raw = read_bytes(path, "CSV file")
     name = path.name or str(path)
-    if path.is_dir():
-        raise MeasurementError(f"{name}: is a directory, not a CSV file")
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise MeasurementError(f"{path}: file not found") from None
-    except PermissionError:
-        raise MeasurementError(f"{path}: permission denied") from None
-    except OSError as err:
-        raise MeasurementError(f"{path}: cannot be read ({err.strerror or err})") from None
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as err:

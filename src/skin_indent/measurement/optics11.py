@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ._errors import MeasurementError, _quote
+from ._files import read_bytes
 from .core import Measurement
 from .csv_io import parse_radius_comment
 
@@ -54,17 +55,9 @@ def _column_row(lines) -> int | None:
 
 
 def _read_lines(path: Path) -> list[str]:
-    name = path.name or str(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise MeasurementError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise MeasurementError(f"{name}: is a directory, not a Chiaro text file") from None
-    except OSError as err:
-        raise MeasurementError(f"{path}: cannot be read ({err.strerror or err})") from None
+    raw = read_bytes(path, "Chiaro text file")
     if b"\x00" in raw:
-        raise MeasurementError(f"{name}: contains NUL bytes; this is not a Chiaro text export")
+        raise MeasurementError(f"{path.name or path}: contains NUL bytes; this is not a Chiaro text export")
     text = raw.decode("utf-8-sig") if raw.startswith(b"\xef\xbb\xbf") else raw.decode("latin-1")
     return text.splitlines()  # the exports mix \r\n, \n and lone \r
 

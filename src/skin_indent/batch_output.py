@@ -1,0 +1,162 @@
+"""The outputs of a batch of fits: a table with its provenance, and a summary figure.
+
+:func:`write_tsv` writes one line per curve of :func:`skin_indent.batch.fit_many` after
+``#`` provenance lines; :func:`summary_figure` draws E per curve and, for force maps, E
+over the map positions.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["summary_figure", "write_tsv"]
+
+
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return "nan" if math.isnan(value) else f"{float(value):.10g}"
+    if isinstance(value, (tuple, list)):
+        return " | ".join(_cell(v) for v in value)
+    return " ".join(str(value).replace("\t", " ").split())
+
+
+def write_tsv(rows, path, provenance: dict | None = None) -> Path:
+    """Write the rows as a tab-separated table, one line per curve, after a provenance header.
+
+    Parameters
+    ----------
+    rows : sequence of BatchRow
+        From :func:`fit_many`.
+    path : path
+        The TSV file (written atomically, mode 0644 under the usual umask).
+    provenance : dict, optional
+        :func:`skin_indent.provenance.provenance`; default the rows' own
+        (``rows.provenance`` of a :class:`BatchResult`).
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    Columns :data:`skin_indent.batch.TSV_COLUMNS`: units in the names (mm, mN, kPa); empty cells for
+    missing values, ``nan`` for numbers not computed; ``flags`` joined by ``" | "``.
+    ``#`` lines come first (:func:`skin_indent.provenance.provenance_comment_lines`;
+    read them back with :func:`skin_indent.provenance.read_provenance`), so
+    ``pandas.read_csv(path, sep="\\t", comment="#")`` reads the table.
+    """
+    from ._atomic import atomic_write
+    from .batch import TSV_COLUMNS
+    from .provenance import provenance_comment_lines
+
+    prov = provenance if provenance is not None else getattr(rows, "provenance", None)
+    lines = provenance_comment_lines(prov) if prov else []
+    lines.append("\t".join(TSV_COLUMNS))
+    lines.extend("\t".join(_cell(getattr(r, c)) for c in TSV_COLUMNS) for r in rows)
+    text = "\n".join(lines) + "\n"
+    return atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
+
+
+def summary_figure(rows, path, *, title: str | None = None) -> Path:
+    """A PNG of E per curve and, for each force map, E over the map's positions.
+
+    Parameters
+    ----------
+    rows : sequence of BatchRow
+    path : path
+        The PNG (written atomically, mode 0644).
+    title : str, optional
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    Left: E (kPa, log scale) with its standard error per curve, in row order; curves
+    whose misfit exceeds :data:`skin_indent.fitting.MISFIT_LIMIT` times the noise in
+    orange, flagged curves in red, curves that failed as a grey cross at the bottom. Right (one panel
+    per force-map file with map positions): the map points coloured by log10 E.
+    """
+    import io
+
+    from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
+
+    from .fitting import MISFIT_LIMIT
+
+    from ._atomic import atomic_write
+
+    rows = list(rows)
+    maps: dict = {}
+    for r in rows:
+        if not r.error and r.x_mm is not None and r.y_mm is not None:
+            maps.setdefault(r.file, []).append(r)
+    n_maps = min(len(maps), 3)
+    fig = Figure(figsize=(6.5 + 4.0 * n_maps, 4.2), layout="constrained")
+    axes = fig.subplots(1, 1 + n_maps, squeeze=False)[0]
+    ax = axes[0]
+    x = np.arange(len(rows))
+    E = np.array([r.E_kPa if not r.error else np.nan for r in rows], dtype=float)
+    sd = np.array([r.E_std_kPa if not r.error else np.nan for r in rows], dtype=float)
+    misfit = np.array([r.misfit if not r.error else np.nan for r in rows], dtype=float)
+    flagged = np.array([not r.error and bool(r.flags) for r in rows], dtype=bool)
+    poor = ~flagged & (misfit > MISFIT_LIMIT)
+    good = np.array([not r.error for r in rows], dtype=bool) & ~flagged & ~poor
+    failed = np.array([bool(r.error) for r in rows], dtype=bool)
+    finite = np.isfinite(E) & (E > 0)
+    sd = np.where(np.isfinite(sd), sd, 0.0)
+    for sel, color, label in ((good & finite, "C0", "fitted"),
+                              (poor & finite, "C1", f"misfit > {MISFIT_LIMIT:g} x noise"),
+                              (flagged & finite, "C3", "flagged")):
+        if np.any(sel):
+            ax.errorbar(x[sel], E[sel], yerr=np.minimum(sd[sel], 0.999 * E[sel]), fmt="o", color=color,
+                        capsize=2, label=label)
+    if np.any(finite):
+        from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+        ax.set_yscale("log")
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.yaxis.set_minor_formatter(NullFormatter())
+        low = np.nanmin(E[finite]) / 2
+    else:
+        low = 1.0
+    if np.any(failed):
+        ax.plot(x[failed], np.full(failed.sum(), low), "x", color="0.5", label="failed")
+    ax.set_xticks(x, [r.short_label() for r in rows], rotation=60 if len(rows) > 3 else 0, ha="right" if len(rows) > 3
+                  else "center", fontsize=8 if len(rows) < 30 else 5)
+    ax.set_ylabel("E (kPa)")
+    ax.set_title(title or f"E per curve ({len(rows)} curves: {int(failed.sum())} failed, {int(flagged.sum())} "
+                          f"flagged, {int(poor.sum())} with misfit > {MISFIT_LIMIT:g} x noise)", fontsize=10)
+    if len(rows):
+        ax.legend(fontsize=8)
+    for ax, (name, rs) in zip(axes[1:], list(maps.items())[:n_maps]):
+        xy = np.array([(r.x_mm, r.y_mm) for r in rs], dtype=float) * 1e3  # um
+        e = np.array([r.E_kPa for r in rs], dtype=float)
+        ok = np.isfinite(e) & (e > 0)
+        sc = ax.scatter(xy[ok, 0], xy[ok, 1], c=np.log10(e[ok]), marker="s", s=80, cmap="viridis")
+        bad = np.array([bool(r.flags) for r in rs])
+        if np.any(bad):
+            ax.scatter(xy[bad, 0], xy[bad, 1], facecolors="none", edgecolors="C3", marker="s", s=140,
+                       label="flagged")
+            ax.legend(fontsize=8)
+        for (px, py), r in zip(xy, rs):
+            ax.annotate(str(r.index), (px, py), fontsize=7, xytext=(4, 4), textcoords="offset points")
+        if np.any(ok):
+            fig.colorbar(sc, ax=ax, label="log10 E (kPa)")
+        ax.set_xlabel("x (um)")
+        ax.set_ylabel("y (um)")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(Path(name).name, fontsize=9)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return atomic_write(path, lambda fh: fh.write(buf.getvalue()))

@@ -1,0 +1,24 @@
+"""Reading a data file's bytes, with one-line errors for what a user can get wrong."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ._errors import MeasurementError
+
+
+def read_bytes(path: Path, kind: str) -> bytes:
+    """The bytes of ``path``; a one-line :class:`MeasurementError` if it is missing, a folder
+    (not a file of the ``kind`` named) or unreadable. What the bytes hold is the reader's to check."""
+    name = path.name or str(path)
+    if path.is_dir():
+        raise MeasurementError(f"{name}: is a directory, not a {kind}")
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise MeasurementError(f"{path}: file not found") from None
+    except PermissionError:
+        raise MeasurementError(f"{path}: permission denied") from None
+    except OSError as err:
+        raise MeasurementError(f"{path}: cannot be read ({err.strerror or err})") from None
+    return raw
