@@ -37,7 +37,7 @@ from skin_indent.measurement import load_csv
 
 CACHE = Context(cache_dir=Path(tempfile.gettempdir()) / "skin_indent_gallery")
 measurement = load_csv(bundled_path("v02_layer_soft_base.csv"))
-diagnosis = diagnose(measurement, context=CACHE)
+diagnosis = diagnose(measurement, context=CACHE, in_loop=False)  # surfaces only: seconds
 print(diagnosis.report())
 verdict = diagnosis.verdict
 
@@ -51,7 +51,7 @@ verdict = diagnosis.verdict
 #
 # Add the effect and watch the error fall
 # ---------------------------------------
-added = diagnose(measurement, context=CACHE, add=(verdict,))
+added = diagnose(measurement, context=CACHE, add=(verdict,), in_loop=False)
 rms_ladder = [f.rms_mN for f in added.ladder]
 for f in added.ladder:
     print(f"{f.model:<24} RMS {f.rms_mN:.4f} mN, BIC {f.bic:8.1f}, {'white' if f.white else 'structured'}")
@@ -81,8 +81,11 @@ plt.show()
 # The bundled forearm-like curve comes from three materials (1 mm of 17.5 kPa dermis,
 # 3 mm of 2.9 kPa fat, 9.4 kPa muscle). The best single effect lowers the error a lot
 # but leaves a structured residual above the noise: the ladder says that the model
-# family is still missing something, rather than pretending that it is not.
-forearm = diagnose(load_csv(bundled_path("forearm_like.csv")), context=CACHE)
+# family is still missing something, rather than pretending that it is not. Here the
+# climb stays on the response surfaces (``in_loop=False``, seconds); with the default
+# ``in_loop=True`` it also fits two layers, or a layer with stiffening, with the
+# finite-element model in the loop (minutes: ``skin-indent demo`` shows that ladder).
+forearm = diagnose(load_csv(bundled_path("forearm_like.csv")), context=CACHE, in_loop=False)
 print(forearm.report())
 best = forearm.ranking[0]
 print(f"best single effect: {best.model}, RMS {best.rms_mN:.3f} mN against noise {forearm.noise_mN:.3f} mN, "

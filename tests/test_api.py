@@ -11,8 +11,9 @@ from skin_indent.effects import FORCE, Effect, EffectParameter, register, unregi
 
 
 @pytest.fixture(scope="module")
-def context(tmp_path_factory):
-    return si.Context(cache_dir=tmp_path_factory.mktemp("api-cache"), workers=2)
+def context(coarse_unit_surfaces):
+    """Surfaces in the gallery cache, where the coarse unit-radius ones are built once per run (conftest.py)."""
+    return si.Context(cache_dir=coarse_unit_surfaces, workers=2)
 
 
 def test_top_level_names_are_the_functions_not_modules():

@@ -5,7 +5,8 @@ R = 20 um, contact past the first samples, a force baseline and noise) plus two 
 is fitted in one batch on 2 worker processes: one row per curve with the right E, one row
 with a one-line error per bad file, a TSV with a provenance header, plots and fit CSVs.
 The force map of tests/data/instrument-files gives one row per curve with its map position.
-One temporary surface cache serves the module (the unit-radius surfaces are built once).
+The surfaces come from the gallery cache, where the coarse unit-radius ones are built once per
+run (conftest.py ``coarse_unit_surfaces``, shared with test_api.py and test_real_data.py).
 """
 
 import hashlib
@@ -60,8 +61,8 @@ def _write_curve(path, E_kPa, seed, radius_comment=True):
 
 
 @pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    return Context(cache_dir=tmp_path_factory.mktemp("surfaces"), workers=2)
+def cache(coarse_unit_surfaces):
+    return Context(cache_dir=coarse_unit_surfaces, workers=2)
 
 
 @pytest.fixture(scope="module")

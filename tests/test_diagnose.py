@@ -3,7 +3,11 @@ the error ladder, the JSON schema, the report, the CLI.
 
 Surfaces are built on the coarse mesh into the temporary cache the gallery uses
 (the coarse family member is within ~0.1% of the fine one; diagnosis adds a 0.3%
-model error floor anyway), once per machine and forward-model version.
+model error floor anyway), once per machine and forward-model version: the
+``diagnosis_surfaces`` fixture (conftest.py) builds them once per run, whichever xdist
+worker needs them first (its diagnosis of the clean curve is the first entry of ``run``).
+The tests are in two xdist groups that share no diagnosis: the answer-key curves, and
+our own synthetic ones.
 """
 
 import json
@@ -27,35 +31,34 @@ HIDDEN = DATA / "hidden-effects"
 KEY = {"v01_clean": "none", "v02_layer_soft_base": "layer", "v03_layer_rigid_base": "layer",
        "v04_stiffening": "stiffening", "v05_offset": "offset", "v06_viscoelastic": "viscoelastic"}
 SIGMA = 0.05  # mN, every hidden-effect curve
+#: xdist groups (``--dist loadgroup``): the tests of a group share diagnoses (the ``run`` memo of a worker)
+ANSWER_KEY = pytest.mark.xdist_group("diagnose-answer-key")
+OWN = pytest.mark.xdist_group("diagnose-own-curves")
 
 
 @pytest.fixture(scope="session")
-def cache():
+def cache(gallery_cache):
     """The gallery's cache folder (ex06 diagnoses on the same coarse surfaces)."""
-    import tempfile
-    from pathlib import Path
-
-    return Path(tempfile.gettempdir()) / "skin_indent_gallery"
+    return gallery_cache
 
 
 @pytest.fixture(scope="session")
-def run(cache):
+def run(cache, hidden, diagnosis_surfaces):
     done = {}
+    if diagnosis_surfaces is not None:  # built here: the diagnosis of the clean curve
+        done[(id(hidden["v01_clean"]), ())] = diagnosis_surfaces
 
     def go(measurement, **kw):
         key = (id(measurement), tuple(sorted((k, str(v)) for k, v in kw.items())))
         if key not in done:
-            done[key] = diagnose(measurement, cache_dir=cache, mesh="coarse", workers=2, **kw)
+            # surfaces only: the finite-element model in the loop is tested in test_fe_fit / test_ladder
+            done[key] = diagnose(measurement, cache_dir=cache, mesh="coarse", workers=2, in_loop=False, **kw)
         return done[key]
 
     return go
 
 
-@pytest.fixture(scope="session")
-def hidden():
-    return {name: load_csv(HIDDEN / f"{name}.csv") for name in KEY}
-
-
+@ANSWER_KEY
 @pytest.mark.parametrize("name", list(KEY))
 def test_hidden_effect_is_named_and_adding_it_brings_the_error_to_the_noise(hidden, run, name):
     d = run(hidden[name])
@@ -87,6 +90,7 @@ def _stiffening_surface(cache):
                                cache_dir=cache, workers=2, progress=False)
 
 
+@ANSWER_KEY
 def test_recovered_parameters_are_those_of_the_answer_key(hidden, run, cache):
     top = run(hidden["v04_stiffening"]).ranking[0]
     # nu is barely identified by a loading curve and C20 trades off against it (free fit: C20 = 8.7 +- 1.0
@@ -112,6 +116,7 @@ def test_recovered_parameters_are_those_of_the_answer_key(hidden, run, cache):
     assert p["thickness_mm"] == pytest.approx(3.0, rel=0.2) and p["ratio"] > 10
 
 
+@ANSWER_KEY
 def test_effects_that_cannot_show_are_not_claimed(hidden, run):
     d = run(hidden["v01_clean"])
     # a single constant-speed ramp: no rate information
@@ -126,6 +131,7 @@ def test_effects_that_cannot_show_are_not_claimed(hidden, run):
     assert "time" in run(untimed).not_detectable["viscoelastic"]
 
 
+@ANSWER_KEY
 def test_json_schema(hidden, run):
     out = run(hidden["v05_offset"]).to_dict()
     json.dumps(out, allow_nan=False)
@@ -172,6 +178,7 @@ def own_cases():
     }
 
 
+@OWN
 @pytest.mark.parametrize("case", ["clean, low noise", "thin layer on a rigid base", "strong stiffening",
                                   "relaxation during a hold"])
 def test_own_hidden_effects(own_cases, run, case):
@@ -183,14 +190,15 @@ def test_own_hidden_effects(own_cases, run, case):
         assert top.rms_mN < 1.3 * d.noise_mN, d.report()
 
 
+@OWN
 def test_two_effects_at_once_climb_the_ladder(run):
     """Stiffening and a shifted contact point: each rung lowers the error, the last reaches the noise."""
     m = _synthetic(("stiffening",), {"E_kPa": 6.0, "nu": 0.47, "C20_kPa": 15.0}, sigma=0.04, seed=5)
     shifted = measurement_from_arrays(np.r_[0.0, m.depth_mm + 0.03], np.r_[0.0, m.force_mN],
                                       np.r_[0.0, m.time_s + 1.5], source="stiffening+offset")
     few = ("stiffening", "offset", "viscoelastic")  # this curve is 0.63 mm deep: no layer surface for it here
-    first = run(shifted, candidates=few)
-    assert first.verdict in ("stiffening", "offset", "ambiguous")
+    first = run(shifted, candidates=few)  # the automatic climb names both (test_ladder checks its end)
+    assert set(first.verdict.split("+")) <= {"stiffening", "offset"} or first.verdict == "ambiguous", first.report()
     both = run(shifted, add=("stiffening", "offset"), candidates=few)
     rms = [f.rms_mN for f in both.ladder]
     assert rms[0] > rms[1] > rms[2] and rms[2] < 1.3 * both.noise_mN, both.report()
@@ -198,6 +206,7 @@ def test_two_effects_at_once_climb_the_ladder(run):
 
 
 # ------------------------------------------------------------------ report and CLI
+@ANSWER_KEY
 def test_report_has_every_figure_embedded(hidden, run, tmp_path):
     page = write_report(run(hidden["v06_viscoelastic"]), tmp_path)
     text = page.read_text()
@@ -210,6 +219,7 @@ def _chromium():
     return shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 
 
+@ANSWER_KEY
 def test_report_opens_in_a_real_browser(hidden, run, tmp_path):
     browser = _chromium()
     if browser is None:
@@ -226,7 +236,8 @@ def test_report_opens_in_a_real_browser(hidden, run, tmp_path):
     assert title == "true,true,true", out.stdout[:500]
 
 
-def test_cli_diagnose_json_and_errors(cache, tmp_path):
+@OWN
+def test_cli_diagnose_json_and_errors(cache, diagnosis_surfaces, tmp_path):
     env = {**__import__("os").environ, "SKIN_INDENT_CACHE": str(cache)}
     cmd = [sys.executable, "-m", "skin_indent", "diagnose", str(HIDDEN / "v05_offset.csv"), "--json",
            "--candidates", "offset,stiffening", "--mesh", "coarse", "--report", str(tmp_path / "r")]

@@ -14,7 +14,9 @@ Design, to run every example once in CI:
 
 ex04 and ex05 share a response surface cached in the temporary folder
 (``skin_indent_gallery``), keyed by a hash of its grid and of the forward-model sources,
-so it is built once (about 10 s) and reused, also by a later docs build.
+so it is built once (about 10 s) and reused, also by a later docs build: the two run in one
+xdist group (one worker), one after the other. ex06 diagnoses on the coarse surfaces that
+tests/test_diagnose.py uses, built once per run by the ``diagnosis_surfaces`` fixture.
 """
 
 from __future__ import annotations
@@ -76,19 +78,24 @@ def test_ex03_mesh_convergence(run_example):
     assert g["coarse_error"] < 2e-3
 
 
+PAPER_GRID = pytest.mark.xdist_group("gallery-paper-grid")  # ex04 and ex05 share its surface file
+
+
+@PAPER_GRID
 def test_ex04_blind_test(run_example):
     g = run_example("ex04_blind_test.py")
     # the paper's filter from (10 kPa, 0.3) on the coarse surface; truth 31 kPa
     assert abs(g["blind_E"] - 31.0) < 0.1
 
 
+@PAPER_GRID
 def test_ex05_invivo_identifiability(run_example):
     g = run_example("ex05_invivo_identifiability.py")
     # least squares on the bundled forearm-like curve (the paper: 5.67 kPa)
     assert abs(g["invivo_E"] - 5.7) < 0.2
 
 
-def test_ex06_diagnose(run_example):
+def test_ex06_diagnose(run_example, diagnosis_surfaces):
     g = run_example("ex06_diagnose.py")
     # a layer on a soft half-space (independent FE): named, and adding it brings the error to the noise
     assert g["verdict"] == "layer"

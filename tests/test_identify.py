@@ -169,7 +169,7 @@ def test_fit_cli_rejects_surface_of_another_radius(surface_file, tmp_path):
 
 def test_demo_runs_end_to_end(tmp_path):
     env = {**__import__("os").environ, "SKIN_INDENT_CACHE": str(tmp_path / "cache")}
-    p = run_cli("demo", "--out", str(tmp_path / "demo"), env=env)
+    p = run_cli("demo", "--out", str(tmp_path / "demo"), "--no-diagnosis", env=env)  # the ladder: below (slow)
     assert p.returncode == 0, p.stderr
     summary = json.loads((tmp_path / "demo" / "demo.json").read_text())
     paper = summary["results"]["ekf-paper"]
@@ -182,9 +182,22 @@ def test_demo_runs_end_to_end(tmp_path):
     assert "wrote" in p.stdout
     # a second run reuses the cached surface: no finite-element run (the time is the lazy import of the
     # forward model, whose source digest keys the cache: ~0.5 s, against ~10 s for a build)
-    p2 = run_cli("demo", "--out", str(tmp_path / "demo2"), env=env)
+    p2 = run_cli("demo", "--out", str(tmp_path / "demo2"), "--no-diagnosis", env=env)
     first, second = (float(re.search(r"ready in ([0-9.]+) s", out).group(1)) for out in (p.stdout, p2.stdout))
     assert second < min(2.0, 0.5 * first), (first, second)
+
+
+@pytest.mark.slow
+def test_demo_goes_on_with_the_diagnosis_ladder(tmp_path):
+    """The main job as a user runs it: the paper's workflow, then the ladder of the same curve."""
+    p = run_cli("demo", "--out", str(tmp_path / "demo"))
+    assert p.returncode == 0, p.stderr
+    summary = json.loads((tmp_path / "demo" / "demo.json").read_text())
+    ladder = summary["diagnosis"]["ladder"]
+    assert ladder[0]["model"] == "neo-hooke" and len(ladder) >= 2
+    assert ladder[-1]["rms_mN"] < ladder[0]["rms_mN"]
+    assert (tmp_path / "demo" / "diagnosis" / "index.html").is_file()
+    assert summary["diagnosis"]["sentence"] in p.stdout
 
 
 def _shifted(surface, d, bounds):

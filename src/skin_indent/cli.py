@@ -393,15 +393,22 @@ def _add_diagnose(sub):
 
     p = sub.add_parser("diagnose", help="compare model and measurement, name the missing physical effect",
                        description="Fit the neo-Hookean half-space to every segment of a measured curve, test "
-                                   "whether the residual is noise, rank the missing effects by BIC, and refit "
-                                   "with effects added (--add) to watch the error fall.")
+                                   "whether the residual is noise, rank the missing effects by BIC, add the "
+                                   "best and diagnose again on top until the residual is noise or nothing "
+                                   "helps (a ladder; --add builds rungs by hand).")
     p.add_argument("data", type=Path, help="measurement CSV (time_s optional) or instrument file")
     p.add_argument("--model", default="neo-hooke",
                    help="base model: neo-hooke, optionally with effects, e.g. neo-hooke+layer (same as --add)")
     p.add_argument("--candidates", default=",".join(EFFECTS),
                    help=f"comma-separated effects to test (default {','.join(EFFECTS)})")
     p.add_argument("--add", action="append", default=[], metavar="EFFECT",
-                   help="add an effect to the model (repeatable, in order): the error ladder")
+                   help="add an effect to the model by hand (repeatable, in order; --add layer --add layer: two "
+                        "layers); the automatic climb goes on from there")
+    p.add_argument("--max-rungs", type=int, default=3, metavar="N",
+                   help="effects the automatic climb may add (default 3; 0: examine the model and stop)")
+    p.add_argument("--surfaces-only", action="store_true",
+                   help="do not fit combinations that no response surface covers (two layers, layer and "
+                        "stiffening) with the finite-element model in the loop (minutes each)")
     p.add_argument("--noise", type=float, default=None, help="noise standard deviation, mN (default: from the data)")
     p.add_argument("--segments", default="approach,hold,retract",
                    help="kinds of motion to diagnose (default all; only trailing ones can be left out)")
@@ -435,8 +442,10 @@ def _run_diagnose(args) -> int:
     measurement = load_curve(args.data, radius_mm=args.radius)
     segments = tuple(x.strip() for x in args.segments.split(",") if x.strip())
     context = Context(workers=args.workers, scheduler=args.scheduler, progress=not args.json)
+    if args.max_rungs < 0:
+        raise CLIError(f"--max-rungs must be >= 0, got {args.max_rungs}")
     diag = diagnose(measurement, candidates=candidates, add=add, noise_mN=args.noise, segments=segments,
-                    context=context, mesh=args.mesh)
+                    max_rungs=args.max_rungs, in_loop=not args.surfaces_only, context=context, mesh=args.mesh)
     if args.report is not None:
         page = write_report(diag, args.report)
     if args.json:
@@ -454,16 +463,20 @@ def _run_diagnose(args) -> int:
 def _add_demo(sub):
     p = sub.add_parser("demo", help="the paper's workflow on the bundled in-vivo-like curve",
                        description="Identify (E, nu) of the bundled forearm-like curve with the paper's EKF and "
-                                   "global stabilisation, a better-conditioned EKF and least squares; write a figure.")
+                                   "global stabilisation, a better-conditioned EKF and least squares; then "
+                                   "diagnose what the homogeneous half-space misses (the ladder); write figures.")
     p.add_argument("--out", type=Path, default=Path("skin_indent_demo"), help="output folder (default skin_indent_demo)")
     p.add_argument("--workers", type=int, default=None, help="local processes for building the surface")
+    p.add_argument("--no-diagnosis", action="store_true",
+                   help="stop after the paper's workflow (the diagnosis ladder builds effect surfaces and fits "
+                        "with the finite-element model in the loop: minutes on 2 cores)")
     p.set_defaults(run=_run_demo)
 
 
 def _run_demo(args) -> int:
     from .demo import run_demo
 
-    run_demo(args.out, workers=args.workers)
+    run_demo(args.out, workers=args.workers, diagnosis=not args.no_diagnosis)
     return 0
 
 

@@ -7,7 +7,11 @@ by an independent finite-element code for a layered skin model plus sensor noise
 (E, nu) over the paper's 0.05-0.6 mm window with the paper's EKF and global
 stabilisation (from the paper's start E = 10 kPa, nu = 0.3, C = 1e-5), with the
 better-conditioned EKF and with least squares, measures whether nu is identifiable,
-and writes a figure and a JSON summary.
+and writes a figure and a JSON summary. Then it goes past the paper: the
+homogeneous half-space leaves a structured misfit, and the diagnosis climbs the
+ladder of effects (:func:`skin_indent.diagnosis.diagnose`) until the model explains
+the curve to the noise, writing the ladder's report (``diagnosis/index.html``) and
+one sentence saying what was missing.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import numpy as np
 
 from .data import bundled_path
 from .context import Context
+from .diagnosis import diagnose, write_report
 from .fitting import PAPER_TOLERANCE, identify, surface_for
 from .measurement import load_csv, prepare
 
@@ -29,8 +34,12 @@ PAPER_START = (10.0, 0.3)
 
 
 def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, workers=None, progress: bool = True,
-             echo=print) -> dict:
-    """Run the demo, write ``demo.png`` and ``demo.json`` into ``out_dir``; return the summary."""
+             echo=print, diagnosis: bool = True) -> dict:
+    """Run the demo, write ``demo.png`` and ``demo.json`` into ``out_dir``; return the summary.
+
+    With ``diagnosis`` (default), go on with the diagnosis ladder of the same curve and
+    write its report into ``out_dir/diagnosis``.
+    """
     from . import inverse
 
     out = Path(out_dir)
@@ -72,6 +81,17 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
              "Fig. 11): the residual is structured, something is missing from the model")
     figure = out / "demo.png"
     _figure(data, surface, results, noise, figure)
+    diag = page = None
+    if diagnosis:
+        echo("what is missing? the diagnosis ladder (finite-element fits in the loop where no surface combines "
+             "the effects):")
+        t = time.perf_counter()
+        diag = diagnose(measurement, context=Context(cache_dir=cache_dir, workers=workers, progress=progress))
+        for f in diag.ladder:
+            echo(f"  {f.model:<32} RMS {f.rms_mN:.4f} mN  {'white' if f.white else 'structured'}")
+        echo(diag.sentence())
+        page = write_report(diag, out / "diagnosis")
+        timings["diagnose"] = time.perf_counter() - t
     summary = {
         "data": str(measurement.source),
         "window_mm": list(WINDOW_MM),
@@ -80,9 +100,11 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
         "time_s": timings,
         "nu_profile": {"verdict": prof.verdict, "values": list(map(float, prof.values)),
                        "rms_mN": list(map(float, prof.rms_mN))},
+        "diagnosis": diag.to_dict() if diag is not None else None,
     }
     (out / "demo.json").write_text(json.dumps(summary, indent=1))
-    echo(f"wrote {figure} (fit, residuals, parameter histories) and {out / 'demo.json'}")
+    echo(f"wrote {figure} (fit, residuals, parameter histories), "
+         + (f"the diagnosis report {page} (the ladder) " if page else "") + f"and {out / 'demo.json'}")
     return summary
 
 

@@ -66,6 +66,13 @@ class ForceDepthCurve:
         Depths (mm) at which equilibrium was solved and the forces there (mN). For
         path-independent laws these are geometrically spaced and the output forces
         come from a cubic spline of the smooth ratio F / h^1.5 (Hertz: F ~ h^1.5).
+    sensitivities : dict or None
+        With ``simulate(..., sensitivities=True)``: ``(k, name) -> ndarray`` of the
+        total derivatives dF/dp at ``depth_mm`` (mN per unit of p: mN/kPa for
+        moduli, mN for nu), ``k`` the index of the material (0 for one material;
+        layers top first, then the substrate unless rigid) and ``name`` a field of
+        its dataclass (``"E_kPa"``, ``"nu"``, ``"C20_kPa"``). See
+        :mod:`skin_indent.mechanics.sensitivity`.
     """
 
     depth_mm: np.ndarray
@@ -78,6 +85,7 @@ class ForceDepthCurve:
     solved_force_mN: np.ndarray
     _state: tuple | None = field(default=None, repr=False)
     time_s: np.ndarray | None = None
+    sensitivities: dict | None = None
 
     def to_csv(self, path: str | Path) -> Path:
         """Write ``depth_mm,force_mN`` (with ``time_s`` first when known) to ``path``."""
@@ -176,7 +184,7 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
              *, mesh=DEFAULT_MESH, increments: int | None = None, solve_at_outputs: bool = False,
              protocol: Protocol | None = None, offset_mm: float = 0.0, penalty: float = PENALTY,
              rtol: float = RTOL, keep_state: bool = False, progress=None,
-             contact: ContactLaw | None = None) -> ForceDepthCurve:
+             contact: ContactLaw | None = None, sensitivities: bool = False) -> ForceDepthCurve:
     """Simulate the indentation of a half-space by a rigid sphere.
 
     Parameters
@@ -218,6 +226,16 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     contact : ContactLaw, optional
         Friction and adhesion between sphere and skin (default frictionless and
         non-adhesive). Friction is history dependent: it needs a ``protocol``.
+    sensitivities : bool
+        Also compute the derivatives of the returned forces with respect to the
+        material parameters, by direct differentiation at every solved state (one
+        extra tangent factorisation per solved depth), into
+        :attr:`ForceDepthCurve.sensitivities`. Only for :class:`NeoHooke` and
+        :class:`NeoHookeStiffening` samples (one material or layers of them) with
+        frictionless, non-adhesive contact. The derivatives are exact for the
+        discrete model (contact penalty scaling and force interpolation included);
+        they are as accurate as the converged states, so use a tight ``rtol``
+        (e.g. 1e-10) when they matter.
 
     Returns
     -------
@@ -235,12 +253,18 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     indenter = indenter or SphericalIndenter()
     if not (isinstance(offset_mm, (int, float, np.floating)) and math.isfinite(offset_mm)):
         raise ValueError(f"offset must be a finite number in mm, got {offset_mm!r}")
+    if sensitivities:
+        from .mechanics.sensitivity import check_differentiable
+
+        check_differentiable(material, contact)
     if offset_mm != 0.0:
         return _simulate_with_offset(material, indenter, depth_mm, points, float(offset_mm), protocol, mesh=mesh,
                                      increments=increments, solve_at_outputs=solve_at_outputs, penalty=penalty,
-                                     rtol=rtol, keep_state=keep_state, progress=progress, contact=contact)
+                                     rtol=rtol, keep_state=keep_state, progress=progress, contact=contact,
+                                     sensitivities=sensitivities)
     if protocol is not None:
-        return _simulate_protocol(material, indenter, protocol, mesh, penalty, rtol, keep_state, progress, contact)
+        return _simulate_protocol(material, indenter, protocol, mesh, penalty, rtol, keep_state, progress, contact,
+                                  sensitivities)
     if not material.path_independent:
         raise ValueError(f"{material.name} depends on the loading history: give a protocol (time and depth)")
     if not getattr(contact, "path_independent", True):
@@ -258,7 +282,8 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         # depth ratio lets the self-similar predictor work (see mechanics.predictor)
         solved = np.geomspace(min(depths[0], depths[-1] / 100.0), depths[-1], int(n_solve))
     cb = (lambda i: progress(i, solved.size)) if progress else None
-    forces, u, report = problem.solve(solved, progress=cb)
+    sens = _direct_sensitivity(problem, material, solved.size) if sensitivities else None
+    forces, u, report = problem.solve(solved, progress=cb, on_converged=sens)
     if solved is depths:
         out = forces
     else:
@@ -266,7 +291,18 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         # accurate down to the smallest depths; the result is linear in the forces.
         out = not_a_knot_spline(solved, forces / solved**1.5, depths) * depths**1.5
     state = (problem, u, float(solved[-1])) if keep_state else None
-    return ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state)
+    curve = ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state)
+    if sens is not None:  # the output forces are linear in the solved ones: so are their derivatives
+        curve.sensitivities = {key: d if solved is depths else
+                               not_a_knot_spline(solved, d / solved**1.5, depths) * depths**1.5
+                               for key, d in sens.values.items()}
+    return curve
+
+
+def _direct_sensitivity(problem, material, n_depths):
+    from .mechanics.sensitivity import DirectSensitivity
+
+    return DirectSensitivity(problem, material, n_depths)
 
 
 def _simulate_with_offset(material, indenter, depth_mm, points, offset, protocol, **kwargs) -> ForceDepthCurve:
@@ -283,20 +319,31 @@ def _simulate_with_offset(material, indenter, depth_mm, points, offset, protocol
     force = np.zeros_like(recorded)
     force[touching] = curve.force_mN
     curve.depth_mm, curve.force_mN = recorded, force
+    if curve.sensitivities is not None:  # zero before contact, like the force
+        curve.sensitivities = {key: _scatter(d, touching) for key, d in curve.sensitivities.items()}
     return curve
 
 
+def _scatter(values: np.ndarray, where: np.ndarray) -> np.ndarray:
+    """``values`` at the True entries of ``where``, zero elsewhere."""
+    out = np.zeros(where.shape)
+    out[where] = values
+    return out
+
+
 def _simulate_protocol(material, indenter, protocol: Protocol, mesh, penalty, rtol, keep_state, progress,
-                       contact=None):
+                       contact=None, sensitivities=False):
     """Solve at every point of a depth-time history."""
     imesh = _mesh_for(mesh, indenter, protocol.max_depth_mm, material)
     problem = IndentationProblem(imesh, material, indenter, protocol.max_depth_mm, penalty=penalty, rtol=rtol,
                                  contact=contact)
     cb = (lambda i: progress(i, protocol.depth_mm.size)) if progress else None
-    forces, u, report = problem.solve(protocol.depth_mm, progress=cb, times_s=protocol.time_s)
+    sens = _direct_sensitivity(problem, material, protocol.depth_mm.size) if sensitivities else None
+    forces, u, report = problem.solve(protocol.depth_mm, progress=cb, times_s=protocol.time_s, on_converged=sens)
     state = (problem, u, float(protocol.depth_mm[-1])) if keep_state else None
     return ForceDepthCurve(protocol.depth_mm, forces, material, indenter, imesh.name, report, protocol.depth_mm,
-                           forces, state, time_s=protocol.time_s)
+                           forces, state, time_s=protocol.time_s,
+                           sensitivities=None if sens is None else sens.values)
 
 
 def fe_unit_curve(nu: float, depth_mm, *, radius_mm: float = 6.22, mesh: str = DEFAULT_MESH) -> np.ndarray:

@@ -69,7 +69,10 @@ def suggest_measurement(fitter, a, b) -> str:
             out[f"a {HOLD_S:g} s hold at the deepest point"] = _hold_difference(fitter, a, b)
         except Exception:  # noqa: BLE001
             pass
-    ea, eb = a.effects[-1], b.effects[-1]
+    if len(a.effects) == len(b.effects) and a.effects[:-1] == b.effects[:-1]:
+        ea, eb = a.effects[-1], b.effects[-1]  # two candidates on the same rung
+    else:
+        ea, eb = "+".join(a.effects), "+".join(b.effects)  # two explanations (sets of effects)
     if not out:
         return "no extra measurement computed here separates them"
     label, diff = max(out.items(), key=lambda kv: kv[1])

@@ -9,12 +9,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, effect
+from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, instances
 from ..inverse import IdentificationResult
 from .residuals import analyse_residuals, describe_structure
 
 #: relative accuracy of the forward model (FE + surface), added to the noise in quadrature
 MODEL_ERROR = 0.003
+#: the structure sentence of a residual in which no range departs from the model
+NO_STRUCTURE = "no range departs from the model beyond the noise"
+#: starts of a fit with the finite-element model in the loop: the best after screening
+#: (each start costs one run to screen; a fit from it, tens)
+FE_STARTS = 1
+#: at most this many start vectors (the product of the effects' start values, warm values first)
+MAX_STARTS = 24
+#: function evaluations (finite-element runs, besides the Jacobians') of one such start
+FE_MAX_EVALUATIONS = 20
+#: relative tolerance of such a fit on the cost and the parameters: 1e-4 of a chi-square of ~n
+#: moves a BIC by ~0.01, far below the differences diagnosis acts on
+FE_TOL = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +55,10 @@ class Rung(IdentificationResult):
         Where the residual departs from the noise, in words.
     bound_model : ComposedModel
         The fitted force model, ``x`` its fitted vector.
+    forward_runs : int
+        Finite-element runs the fit made (the finite-element model in the loop; 0 on surfaces).
+    at_bounds : tuple of str
+        Fit parameters that ended on a face of their range.
     """
 
     BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
@@ -58,6 +74,8 @@ class Rung(IdentificationResult):
     structure: str = ""
     bound_model: object = field(default=None, repr=False)
     x: np.ndarray = None
+    forward_runs: int = 0
+    at_bounds: tuple = ()
 
     @property
     def residual_mN(self) -> np.ndarray:
@@ -90,7 +108,7 @@ class Fitter:
     mesh : str
     """
 
-    def __init__(self, data, noise_mN: float, *, noise_known: bool, context, mesh: str):
+    def __init__(self, data, noise_mN: float, *, noise_known: bool, context, mesh: str, in_loop: bool = True):
         from ..fitting import hertz_modulus
 
         self.data = data
@@ -100,6 +118,8 @@ class Fitter:
         self.noise_dof = None if noise_known else 0.35 * data.n
         self.context = context
         self.mesh = mesh
+        #: fit combinations that no surface covers with the finite-element model in the loop
+        self.in_loop = in_loop
         h, F = data.loading()
         if h.size < 3:
             raise ValueError(f"{data.source}: fewer than 3 loading points in contact to diagnose")
@@ -114,44 +134,115 @@ class Fitter:
         return np.sqrt(self.noise_mN**2 + (MODEL_ERROR * np.abs(force)) ** 2)
 
     def core(self, effects):
-        """The elastic force model of these effects (cached per elastic effect)."""
+        """The elastic force model of these effects (cached per set of elastic effects).
+
+        A response surface for none or one elastic effect; the finite-element model in
+        the loop for more (two layers, layer and stiffening...).
+        """
         from ..fitting import elastic_core
 
-        key = tuple(e.name for e in map(effect, effects) if e.stage == ELASTIC)
+        key = tuple(e.name for e in instances(effects) if e.stage == ELASTIC)
+        if len(key) > 1 and not self.in_loop:
+            raise ValueError(f"no surface combines {' and '.join(key)}: it is fitted with the finite-element model "
+                             "in the loop, switched off here")
         if key not in self._cores:
             self._cores[key] = elastic_core(key, radius_mm=self.radius_mm, max_depth_mm=self.max_depth,
                                             e_star_kPa=self.e_star, context=self.context, mesh=self.mesh)
         return self._cores[key]
 
+    def full(self, effects) -> tuple:
+        """The effects of the fitted model: the implicit contact point first (once), then ``effects``."""
+        names = tuple(e.name for e in instances(effects))
+        return tuple(e for e in self.implicit if e not in names) + names
+
     def model(self, effects: tuple):
         from ..models import ComposedModel
 
-        objs = [effect(e) for e in effects]
+        objs = instances(effects)
         weighed = [e.name for e in objs if e.stage == WEIGHED]
         if weighed:
             raise ValueError(f"{', '.join(weighed)} is weighed, not fitted: no fitted model has it yet")
-        full = tuple(dict.fromkeys([*self.implicit, *(e.name for e in objs)]))
+        full = self.full(effects)
         return ComposedModel(self.core(full), full, self.data)
 
+    def warm(self, effects: tuple):
+        """The fitted rung of the largest set of effects contained in ``effects`` (None: none fitted)."""
+        want = sorted(effects)
+        best = None
+        for key, rung in self.fits.items():
+            if len(key) >= len(effects):
+                continue
+            rest = list(want)
+            try:
+                for e in key:
+                    rest.remove(e)
+            except ValueError:
+                continue
+            if best is None or len(key) > len(best.effects):
+                best = rung
+        return best
+
     def starts(self, model, effects: tuple) -> list[np.ndarray]:
+        """Start vectors: the warm start with the new effects switched off first (a fit can
+        then only improve on the nested model), then the effects' own start values."""
         names = model.parameter_names
         lo, hi = model.bounds
         nu0 = min(max(0.45, lo[1]), hi[1])
         base = {"E_kPa": self.e_star * (1 - nu0**2), "nu": nu0}
-        prev = self.fits.get(tuple(effects[:-1])) if effects else None
+        prev = self.warm(tuple(effects))
         if prev is not None:
             base.update({k: v for k, v in prev.fit_parameters.items() if k in names})
-        options = {}
+        options, off = {}, {}
         for e in model.effects:
             bounds = {k: (lo[names.index(k)], hi[names.index(k)]) for k in e.fit_names if k in names}
             options.update(e.starts(self.data, bounds))
+            values = {p.name: p.off if p.off is not None else p.neutral for p in e.parameters}
+            if all(v is not None for v in values.values()) and set(e.fit_names) <= set(names):
+                try:
+                    off.update(e.to_fit(values, base["E_kPa"]))
+                except (ValueError, ZeroDivisionError):
+                    pass
         varied = [k for k in names if k in options and k not in base]
         out = []
-        for combo in itertools.product(*(options[k] for k in varied)):
+        if hasattr(model.core, "prefetch"):
+            # the finite-element model in the loop: the nested start is degenerate (a layer of the
+            # same modulus has no thickness gradient) and the simpler model's elastic values may be
+            # far from the combination's (one layer standing in for two), so the elastic parameters
+            # fitted before vary too; the starts are screened (one run each) before a fit
+            core_names = set(model.core.parameter_names[2:])
+            for k in core_names & set(options):
+                if k in base:
+                    options[k] = tuple(dict.fromkeys((base[k], *options[k])))
+                    varied.append(k)
+            varied = [k for k in names if k in varied]
+        if prev is not None and all(k in off for k in varied):
+            nested = [off[k] if k in varied else base.get(k, 0.5 * (lo[i] + hi[i])) for i, k in enumerate(names)]
+            out.append(np.clip(np.array(nested, dtype=float), lo, hi))
+        for combo in itertools.islice(itertools.product(*(options[k] for k in varied)), MAX_STARTS):
             x = [combo[varied.index(k)] if k in varied else base.get(k, 0.5 * (lo[i] + hi[i]))
                  for i, k in enumerate(names)]
             out.append(np.clip(np.array(x, dtype=float), lo, hi))
         return out
+
+    def _screen(self, model, starts: list, keep: int) -> list:
+        """The ``keep`` best starts by their weighted misfit (runs made in parallel).
+
+        The nested start (the simpler model's optimum, new effects off) is among them, so
+        the best start already fits at least as well as the simpler model.
+        """
+        if len(starts) <= keep:
+            return starts
+        d = self.data
+        n_core = len(model.core.parameter_names)
+        model.core.prefetch([x[:n_core] for x in starts])
+        costs = []
+        for x in starts:
+            try:
+                f = model.force(d.depth_mm, x)
+                costs.append(float(np.sum(((f - d.force_mN) / self.sigma(f)) ** 2)))
+            except ValueError:
+                costs.append(math.inf)
+        return [starts[int(i)] for i in np.argsort(costs, kind="stable")[:keep]]
 
     def fit(self, effects: tuple) -> Rung:
         from ..inverse import fit_least_squares
@@ -161,16 +252,26 @@ class Fitter:
             return self.fits[key]
         model = self.model(key)
         d = self.data
+        starts = self.starts(model, key)
+        options = {}
+        runs0 = getattr(model.core, "runs", 0)
+        in_loop = hasattr(model.core, "prefetch")
+        if in_loop:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
+            nested = starts[0] if self.warm(key) is not None else None
+            screened = self._screen(model, starts[1:] if nested is not None else starts, FE_STARTS)
+            starts = screened
+            options = dict(ftol=FE_TOL, xtol=FE_TOL, gtol=1e-8, max_nfev=FE_MAX_EVALUATIONS)
         best = None
-        for x0 in self.starts(model, key):
+        for x0 in starts:
             try:
-                res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN)
+                res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **options)
             except ValueError:
                 continue
             if best is None or res.rms_mN < best.rms_mN:
                 best = res
         if best is None:
             raise ValueError(f"the model {model.name} could not be fitted")
+        forward_runs = getattr(model.core, "runs", 0) - runs0
         x = np.array([best.parameters[n] for n in model.parameter_names])
         pred = d.force_mN - best.residuals_mN
         cov = np.full((x.size, x.size), np.nan)
@@ -185,7 +286,8 @@ class Fitter:
         rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
-                    structure=structure_sentence(d, r, s), bound_model=model, x=x)
+                    structure=structure_sentence(d, r, s), bound_model=model, x=x, forward_runs=forward_runs,
+                    at_bounds=tuple(best.info.get("active_bounds", ())))
         self.fits[key] = rung
         return rung
 
@@ -206,4 +308,4 @@ def structure_sentence(data, residual, sigma) -> str:
             text = [f"too {r['sign'].split()[1]} from {r['from_mm']:.3g} to {r['to_mm']:.3g} mm" for r in ranges]
         if text:
             parts.append(f"on {label}: model " + ", ".join(text))
-    return "; ".join(parts) if parts else "no range departs from the model beyond the noise"
+    return "; ".join(parts) if parts else NO_STRUCTURE

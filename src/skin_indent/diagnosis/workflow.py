@@ -43,10 +43,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..effects import EFFECTS, WEIGHED, effect
+from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, Measurement, PreparedCurve, prepare
 from .evidence import suggest_measurement
-from .fits import MODEL_ERROR, Fitter, Rung
+from .fits import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung
 from .residuals import effective_sample_size
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
@@ -59,6 +59,12 @@ CLOSE = 2.0
 #: BIC difference under which the runner-up is not excluded: named in ``confounded_with``,
 #: with the measurement that would separate it from the winner
 RIVAL = 10.0
+#: a rung explains the curve when its residual is white and its RMS is within this factor
+#: of the noise (noise and model error in quadrature)
+ALLOWANCE = 1.3
+#: explanations climbed side by side: the best first candidate and the runner-up when it too
+#: lowers the BIC by more than :data:`STRONG` (one effect may stand in for two), each up to ``max_rungs``
+BEAM = 2
 
 
 
@@ -77,7 +83,25 @@ def _fmt_params(f: Rung) -> str:
 # ----------------------------------------------------------------------------- result
 @dataclass
 class Diagnosis:
-    """The outcome of :func:`diagnose` (``to_dict`` gives the JSON of ``skin-indent diagnose --json``)."""
+    """The outcome of :func:`diagnose` (``to_dict`` gives the JSON of ``skin-indent diagnose --json``).
+
+    Attributes
+    ----------
+    ladder : list of Rung
+        From the base model through the effects added by hand to those the climb added;
+        ``current`` is the last.
+    ranking, not_detectable : list, dict
+        The first examination: the candidates on top of the given model.
+    verdict : str
+        What was missing from the given model: an effect (``"layer"``), several in the
+        order they were added (``"offset+layer"``, ``"layer+layer"``), ``"none"``, or
+        ``"ambiguous"`` when another set of effects explains the curve about as well
+        (``confounded_with`` names them, ``suggested_measurement`` says what separates them).
+    steps : list of Step
+        Every examination of the climb.
+    alternatives : list of Rung
+        The end rungs of the other explanations climbed (a beam of :data:`BEAM`).
+    """
 
     data: PreparedCurve
     noise_mN: float
@@ -91,6 +115,10 @@ class Diagnosis:
     suggested_measurement: str | None
     n_effective: float
     notes: list = field(default_factory=list)
+    steps: list = field(default_factory=list)
+    alternatives: list = field(default_factory=list)
+    n_given: int = 0
+    fitter: object = field(default=None, repr=False)
 
     @property
     def current(self) -> Rung:
@@ -100,22 +128,71 @@ class Diagnosis:
     def base(self) -> Rung:
         return self.ladder[0]
 
-    def sentence(self) -> str:
+    @property
+    def missing(self) -> tuple:
+        """The effects the climb added to the given model."""
+        return tuple(self.current.effects[self.n_given:])
+
+    @property
+    def explained(self) -> bool:
+        """The last rung explains the curve to the noise (:func:`explained`)."""
+        return explained(self.current, self.fitter) if self.fitter is not None else bool(self.current.white)
+
+    def undetermined(self) -> dict:
+        """Parameters of the last rung the curve does not determine: ``{name: reason}``.
+
+        Not determined: a standard deviation over half the value (or not finite), or a
+        fit parameter on a face of its range (other than a rigid base, compliance 0).
+        """
         cur = self.current
-        if self.verdict == "none":
-            return (f"The {cur.model} model explains this curve to the noise level ({cur.rms_mN:.3g} mN RMS "
-                    f"against {self.noise_mN:.3g} mN noise): no missing effect is needed.")
-        top = self.ranking[0]
-        effect = top.effects[-1]
-        others = [e for e in self.confounded_with if e != effect]
-        if self.verdict == "ambiguous":
-            return (f"The {cur.model} model fails ({cur.structure}); {effect} and {' or '.join(others)} explain it "
-                    f"about equally well: {self.suggested_measurement}")
-        text = (f"The {cur.model} model fails ({cur.structure}); the missing effect is {self.verdict}: adding it "
-                f"lowers the RMS from {cur.rms_mN:.3g} to {top.rms_mN:.3g} mN (noise {self.noise_mN:.3g} mN) "
-                f"and the BIC by {cur.bic - top.bic:.1f}.")
-        if others:
-            text += f" {' and '.join(others).capitalize()} is not excluded: {self.suggested_measurement}."
+        out = {}
+        for k, v in cur.parameters.items():
+            sd = cur.std.get(k, math.nan)
+            if not math.isfinite(v):
+                continue
+            if not math.isfinite(sd) or sd > 0.5 * abs(v):
+                out[k] = f"{k} = {v:.3g} +- {sd:.2g}: not determined by this curve"
+        for k in cur.at_bounds:
+            if k == "nu" or (k.startswith("compliance") and cur.fit_parameters.get(k, 1.0) == 0.0):
+                continue  # skin's nearly incompressible end and a rigid base are physical ends
+            out.setdefault(k, f"{k} = {cur.fit_parameters.get(k, math.nan):.4g} at the edge of its range: "
+                              "refitted from other starts and still there")
+        return out
+
+    def sentence(self) -> str:
+        cur, base = self.current, self.ladder[self.n_given]
+        first = self.steps[0] if self.steps else None
+        if not self.missing:
+            if self.verdict == "ambiguous" and first is not None:
+                effects = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
+                return (f"The {cur.model} model fails ({cur.structure}); {' and '.join(effects)} explain it "
+                        f"about equally well: {self.suggested_measurement}")
+            if self.verdict != "none" and first is not None:  # named, not added (max_rungs = 0)
+                top = first.ranking[0]
+                return (f"The {cur.model} model fails ({cur.structure}); the missing effect is {self.verdict}: "
+                        f"adding it lowers the RMS from {cur.rms_mN:.3g} to {top.rms_mN:.3g} mN (noise "
+                        f"{self.noise_mN:.3g} mN) and the BIC by {first.rung.bic - top.bic:.1f}.")
+            if self.explained:
+                return (f"The {cur.model} model explains this curve to the noise level ({cur.rms_mN:.3g} mN RMS "
+                        f"against {self.noise_mN:.3g} mN noise): no missing effect is needed.")
+            return (f"The {cur.model} model does not explain this curve ({cur.rms_mN:.3g} mN RMS against "
+                    f"{self.noise_mN:.3g} mN noise; {cur.structure}), and no effect of the vocabulary lowers the "
+                    f"BIC by more than {STRONG:g}: what is missing is outside the vocabulary.")
+        rms = " -> ".join(f"{f.rms_mN:.3g}" for f in self.ladder[self.n_given:])
+        what = " and ".join(_plural(self.missing))
+        text = f"What the {base.model} model misses: {what} (RMS {rms} mN against {self.noise_mN:.3g} mN noise)"
+        if self.explained:
+            text += f"; the {cur.model} model explains the curve to the noise."
+        else:
+            text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}) and no further "
+                     f"effect of the vocabulary lowers the BIC by more than {STRONG:g}.")
+        if self.verdict == "ambiguous" or len(self.confounded_with) > 1:
+            others = self.confounded_with[1:]
+            text += (f" {' or '.join(others).capitalize()} explains it "
+                     f"{'about equally well' if self.verdict == 'ambiguous' else 'nearly as well'}: "
+                     f"{self.suggested_measurement}.")
+        for reason in self.undetermined().values():
+            text += f" {reason[0].upper()}{reason[1:]}."
         return text
 
     def report(self) -> str:
@@ -132,15 +209,23 @@ class Diagnosis:
         lines += [f"note: {n}" for n in d.notes]
         lines.append("ladder:")
         for f in self.ladder:
+            how = f", finite elements in the loop ({f.forward_runs} runs)" if f.forward_runs else ""
             lines.append(f"  {f.model:<28} RMS {f.rms_mN:.4g} mN  BIC {f.bic:9.1f}  "
+                         f"{'white' if f.white else 'structured'}  {_fmt_params(f)}{how}")
+        for f in self.alternatives:
+            lines.append(f"  (other explanation) {f.model:<20} RMS {f.rms_mN:.4g} mN  BIC {f.bic:9.1f}  "
                          f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
-        lines.append(f"where {self.current.model} fails: {self.current.structure}")
-        lines.append("candidates (delta BIC > 0: better than the current model):")
-        for f in self.ranking:
-            lines.append(f"  +{f.effects[-1]:<13} dBIC {self.current.bic - f.bic:8.1f}  RMS {f.rms_mN:.4g} mN  "
-                         f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
-        for k, v in self.not_detectable.items():
-            lines.append(f"  {k:<14} not detectable here: {v}")
+        for i, step in enumerate(self.steps):
+            lines.append(f"where {step.rung.model} fails: {step.rung.structure}")
+            lines.append("candidates (delta BIC > 0: better than that model):")
+            for f in step.ranking:
+                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {f.rms_mN:.4g} mN  "
+                             f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
+            for k, v in step.not_detectable.items():
+                if v.startswith("not fitted"):
+                    lines.append(f"  +{k:<13} {v}")
+                elif i == 0:  # what the data cannot show does not change up the ladder
+                    lines.append(f"  {k:<14} not detectable here: {v}")
         lines.append(f"verdict: {self.verdict}")
         lines.append(self.sentence())
         lines += [f"note: {n}" for n in self.notes]
@@ -151,6 +236,12 @@ class Diagnosis:
 
         base, cur = self.base, self.current
         contact = cur.parameters.get("offset_mm", 0.0)
+
+        def rung(f):
+            return {"model": f.model, "effects": list(f.effects), "parameters": f.parameters, "std": f.std,
+                    "rms_mN": f.rms_mN, "bic": f.bic, "white": f.white, "structure": f.structure,
+                    "forward_runs": f.forward_runs, "at_bounds": list(f.at_bounds)}
+
         return jsonable({
             "data": self.data.source,
             "n_points": self.data.n,
@@ -163,26 +254,158 @@ class Diagnosis:
             "n_effective": self.n_effective,
             "baseline_mN": self.data.baseline_mN,
             "contact_point_mm": float(contact),
-            "base": {"model": base.model, "parameters": base.parameters, "std": base.std,
-                     "rms_mN": base.rms_mN, "bic": base.bic, "white": base.white, "structure": base.structure},
-            "current": {"model": cur.model, "parameters": cur.parameters, "std": cur.std,
-                        "rms_mN": cur.rms_mN, "bic": cur.bic, "white": cur.white, "structure": cur.structure},
-            "ranking": [{"effect": f.effects[-1], "delta_bic": cur.bic - f.bic, **f.summary()} for f in self.ranking],
+            "base": rung(base),
+            "current": rung(cur),
+            "explained": self.explained,
+            "missing": list(self.missing),
+            "undetermined": self.undetermined(),
+            "ranking": [{"effect": f.effects[-1], "delta_bic": self.steps[0].rung.bic - f.bic, **f.summary()}
+                        for f in self.ranking] if self.steps else [],
+            "steps": [{"model": st.rung.model, "verdict": st.verdict,
+                       "ranking": [{"effect": f.effects[-1], "delta_bic": st.rung.bic - f.bic, **f.summary()}
+                                   for f in st.ranking],
+                       "not_detectable": dict(st.not_detectable)} for st in self.steps],
+            "alternatives": [rung(f) for f in self.alternatives],
             "not_detectable": dict(self.not_detectable),
             "verdict": self.verdict,
             "confounded_with": list(self.confounded_with),
             "suggested_measurement": self.suggested_measurement,
             "sentence": self.sentence(),
-            "ladder": [{"model": f.model, "rms_mN": f.rms_mN, "bic": f.bic, "white": f.white,
-                        "parameters": f.parameters, "std": f.std} for f in self.ladder],
+            "ladder": [rung(f) for f in self.ladder],
             "notes": list(self.notes),
         })
 
 
+def _contains(big, small) -> bool:
+    """Every effect of ``small`` is in ``big`` (as often)."""
+    rest = list(big)
+    for e in small:
+        if e not in rest:
+            return False
+        rest.remove(e)
+    return True
+
+
+def _plural(effects) -> list[str]:
+    """``("layer", "layer", "offset")`` -> ``["2 layers", "offset"]``, in order of first appearance."""
+    counts: dict = {}
+    for e in effects:
+        counts[e] = counts.get(e, 0) + 1
+    return [f"{n} {e}s" if n > 1 else e for e, n in counts.items()]
+
+
 # ----------------------------------------------------------------------------- the workflow
+@dataclass
+class Step:
+    """One examination of a rung: every candidate effect fitted on top of it and ranked.
+
+    Attributes
+    ----------
+    rung : Rung
+        The model examined.
+    ranking : list of Rung
+        The candidates, best BIC first (``effects[-1]`` is the one added).
+    not_detectable : dict
+        Candidates that cannot show in these data (or that no fitted model has), with why.
+    verdict : str
+        The effect named (its BIC lower by more than :data:`STRONG`, no rival within
+        :data:`CLOSE`), ``"none"`` or ``"ambiguous"``.
+    rivals : list of Rung
+        Candidates the data do not exclude (BIC within :data:`RIVAL` of the best).
+    """
+
+    rung: Rung
+    ranking: list
+    not_detectable: dict
+    verdict: str
+    rivals: list
+
+
+def explained(rung: Rung, fitter: Fitter) -> bool:
+    """A rung explains the curve to the noise: a residual without structure (runs test and
+    Ljung-Box at the noise level) and an RMS within :data:`ALLOWANCE` of the noise (noise and
+    model error in quadrature). The chi-square part of the whiteness test is this allowance:
+    an estimated noise level is itself uncertain by ~12% for 100 points. A borderline test
+    (p between alpha / 10 and alpha: 2 tests at alpha = 0.01 flag one clean curve in 50)
+    counts only when a range of the curve departs from the model beyond the noise."""
+    a = rung.analysis
+    p = min(a.runs_p, a.ljung_box_p)
+    # borderline tests (alpha / 10 < p <= alpha) count as structure only where a range departs
+    structureless = p > a.alpha or (p > a.alpha / 10 and rung.structure == NO_STRUCTURE)
+    allowed = ALLOWANCE * float(np.sqrt(np.mean(fitter.sigma(rung.prediction_mN) ** 2)))
+    return bool(structureless and rung.rms_mN <= allowed)
+
+
+def _examine(fitter: Fitter, key: tuple, candidates, n_eff: float) -> Step:
+    """Fit every candidate on top of the rung ``key`` and rank them by BIC."""
+    data, sigma = fitter.data, fitter.noise_mN
+    current = fitter.fit(key)
+    not_detectable: dict[str, str] = {}
+    tried, weighed = [], []
+    for name in candidates:
+        e = effect(name)
+        if name in key and not e.repeatable:
+            continue
+        why = e.visible(data, sigma)
+        if why is not None:
+            not_detectable[name] = why
+            continue
+        if e.stage == WEIGHED:
+            weighed.append(e)  # at the nu of the best-fitting model, below
+            continue
+        try:
+            tried.append(fitter.fit(key + (name,)))
+        except ValueError as err:
+            not_detectable[name] = f"not fitted: {err}"
+    best = min([current, *tried], key=lambda f: f.chi2_weighted)
+    for e in weighed:
+        not_detectable[e.name] = e.weigh(fitter, best)
+    scored = _scorer(fitter.data.n, n_eff)
+    current = scored(current)
+    ranking = sorted((scored(f) for f in tried), key=lambda f: f.bic)
+    verdict, rivals = "none", []
+    if ranking and current.bic - ranking[0].bic > STRONG:
+        top = ranking[0]
+        rivals = [f for f in ranking[1:] if f.bic - top.bic < RIVAL and current.bic - f.bic > STRONG]
+        verdict = "ambiguous" if any(f.bic - top.bic < CLOSE for f in rivals) else top.effects[-1]
+    return Step(current, ranking, not_detectable, verdict, rivals)
+
+
+def _scorer(n: int, n_eff: float):
+    def scored(f: Rung) -> Rung:
+        return dataclasses.replace(f, bic=f.chi2_weighted * n_eff / n + f.n_parameters * math.log(n_eff))
+
+    return scored
+
+
+def _effective_size(fitter: Fitter, rungs) -> float:
+    """AR(1) effective sample size of the best-fitting rung's residual (at least 2 k + 2, at most n)."""
+    best = min(rungs, key=lambda f: f.chi2_weighted)
+    n = fitter.data.n
+    r = best.residual_mN * fitter.noise_mN / fitter.sigma(best.prediction_mN)
+    return float(min(max(effective_sample_size(r), 2.0 * max(f.n_parameters for f in rungs) + 2), n))
+
+
+def _climb(fitter: Fitter, key: tuple, candidates, n_eff: float, rungs_left: int, steps: list) -> tuple:
+    """Greedy climb from ``key``: add the named effect while the rung is not explained."""
+    while rungs_left > 0 and not explained(fitter.fit(key), fitter):
+        step = _examine(fitter, key, candidates, n_eff)
+        steps.append(step)
+        if step.verdict in ("none", "ambiguous"):
+            if step.verdict == "ambiguous":  # the best of the close ones; the comparison is reported
+                key = key + (step.ranking[0].effects[-1],)
+                rungs_left -= 1
+                continue
+            break
+        key = key + (step.verdict,)
+        rungs_left -= 1
+    return key
+
+
 def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, add=(), noise_mN: float | None = None,
-             segments=SEGMENTS, context=None, mesh: str = "coarse", **build) -> Diagnosis:
-    """Compare the model with a measured curve and name the physical effect it misses.
+             segments=SEGMENTS, max_rungs: int = 3, in_loop: bool = True, context=None, mesh: str = "coarse",
+             **build) -> Diagnosis:
+    """Compare the model with a measured curve, name the effects it misses and add them.
 
     Parameters
     ----------
@@ -193,13 +416,28 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
     candidates : sequence of str, optional
         Effects to test (default: every registered effect).
     add : sequence of str
-        Effects added to the base model, in order: each is a rung of the ladder,
-        and the candidates are tested on top of the last rung.
+        Effects added to the base model by hand, in order: each is a rung of the
+        ladder (``("layer", "layer")``: two layers), and the diagnosis goes on from the last.
     noise_mN : float, optional
         Noise standard deviation, mN; default estimated from the data.
     segments : sequence of str
         Kinds of motion to diagnose (default all: ``approach``, ``hold``, ``retract``);
         only trailing ones can be left out.
+    max_rungs : int
+        Effects the automatic climb may add on top of ``add`` (0: examine the last rung
+        and stop). The climb adds the named effect, diagnoses again on top, and stops
+        when the rung explains the curve to the noise (:func:`explained`), or no
+        candidate lowers the BIC by more than :data:`STRONG`. When the first examination
+        names a runner-up too (BIC lower than the model's by more than :data:`STRONG`),
+        its branch is climbed as well (a beam of :data:`BEAM`) and the two explanations
+        are compared (``alternatives``): within :data:`CLOSE` of each other the verdict
+        is ``ambiguous``; within :data:`RIVAL`, the other is named with the measurement
+        that would separate them.
+    in_loop : bool
+        Fit combinations of elastic effects that no response surface covers (two layers,
+        layer and stiffening) with the finite-element model in the loop
+        (:class:`~skin_indent.models.fe_core.FECore`; tens of forward runs, minutes on 2
+        cores each). ``False``: such candidates are reported as not fitted, with the reason.
     context : Context, optional
         Where the response surfaces are cached and built (or the keywords ``cache_dir``,
         ``workers``, ``client``, ``scheduler``, ``progress`` of a :class:`~skin_indent.Context`).
@@ -221,11 +459,12 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
         effect(name)  # one line naming the vocabulary for an unknown name
     add = tuple(effect(a).name for a in add)
     candidates = tuple(effect(c).name for c in candidates)
-    if len(set(add)) != len(add):
-        raise ValueError(f"each effect may be added once, got {add}")
+    instances(add)  # one line for an effect given twice that cannot repeat
     for name in add:
         if effect(name).stage == WEIGHED:
             raise ValueError(f"add {name}: it is weighed, not fitted; no fitted model has it yet")
+    if isinstance(max_rungs, bool) or not isinstance(max_rungs, int) or max_rungs < 0:
+        raise ValueError(f"max_rungs must be an integer >= 0, got {max_rungs!r}")
     if isinstance(measurement, PreparedCurve):
         data = measurement
     else:
@@ -240,48 +479,57 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
         if not (math.isfinite(noise_mN) and noise_mN > 0):
             raise ValueError(f"noise must be a positive number of mN, got {noise_mN}")
         sigma, source = float(noise_mN) / math.sqrt(data.binned), "given"
-    fitter = Fitter(data, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh)
-    ladder = [fitter.fit(add[:i]) for i in range(len(add) + 1)]
-    current = ladder[-1]
-    not_detectable: dict[str, str] = {}
-    tried, weighed = [], []
+    fitter = Fitter(data, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop)
+    for i in range(len(add) + 1):
+        fitter.fit(add[:i])
+
+    # the first examination: the candidates on top of the given model (its n_eff from the best fit there)
+    fits = [fitter.fit(add)]
     for name in candidates:
-        if name in add:
-            continue
-        e = effect(name)
-        why = e.visible(data, sigma)
-        if why is not None:
-            not_detectable[name] = why
-            continue
-        if e.stage == WEIGHED:
-            weighed.append(e)  # at the nu of the best-fitting model, below
-            continue
         try:
-            tried.append(fitter.fit(add + (name,)))
-        except ValueError as err:
-            not_detectable[name] = f"not fitted: {err}"
-    fits = [current, *tried]
-    best = min(fits, key=lambda f: f.chi2_weighted)
-    for e in weighed:
-        not_detectable[e.name] = e.weigh(fitter, best)
-    n = data.n
-    n_eff = float(min(max(effective_sample_size(best.residual_mN * fitter.noise_mN / fitter.sigma(best.prediction_mN)),
-                          2.0 * max(f.n_parameters for f in fits) + 2), n))
-
-    def scored(f: Rung) -> Rung:
-        return dataclasses.replace(f, bic=f.chi2_weighted * n_eff / n + f.n_parameters * math.log(n_eff))
-
-    ladder = [scored(f) for f in ladder]
-    current = ladder[-1]
-    ranking = sorted((scored(f) for f in tried), key=lambda f: f.bic)
-    verdict, confounded, suggestion = "none", [], None
-    if ranking and current.bic - ranking[0].bic > STRONG:
-        top = ranking[0]
-        rivals = [f for f in ranking[1:] if f.bic - top.bic < RIVAL and current.bic - f.bic > STRONG]
-        close = [f for f in rivals if f.bic - top.bic < CLOSE]
-        verdict = "ambiguous" if close else top.effects[-1]
-        if rivals:  # named or not, a rival the data do not exclude is reported with the test that would
-            confounded = ([top.effects[-1]] if close else []) + [f.effects[-1] for f in rivals]
-            suggestion = suggest_measurement(fitter, top, rivals[0])
-    return Diagnosis(data, sigma, source, data.radius_mm, ladder, ranking, not_detectable, verdict, confounded,
-                     suggestion, n_eff, [])
+            e = effect(name)
+            if e.stage != WEIGHED and e.visible(data, sigma) is None and (name not in add or e.repeatable):
+                fits.append(fitter.fit(add + (name,)))
+        except ValueError:
+            pass
+    n_eff = _effective_size(fitter, fits)
+    first = _examine(fitter, add, candidates, n_eff)
+    steps = [first]
+    branches = []
+    if first.verdict != "none" and max_rungs > 0:
+        named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
+        heads = [first.ranking[0]] + named[:BEAM - 1]
+        for head in heads:
+            branch_steps = []
+            key = _climb(fitter, head.effects, candidates, n_eff, max_rungs - 1, branch_steps)
+            branches.append((key, branch_steps))
+    notes = []
+    alternatives = []
+    if branches:
+        n_eff = _effective_size(fitter, [fitter.fit(k) for k, _ in branches] + fits)
+        scored = _scorer(data.n, n_eff)
+        finals = sorted(((scored(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
+        best_rung, key, more = finals[0]
+        steps += more
+        # another explanation is a set of effects that neither contains the chosen one nor is
+        # contained in it (the same set in another order, or one effect more, is the same explanation)
+        alternatives = [f for f, k, _ in finals[1:] if not (_contains(k, key) or _contains(key, k))]
+    else:
+        key = add
+    scored = _scorer(data.n, n_eff)
+    ladder = [scored(fitter.fit(key[:i])) for i in range(len(key) + 1)]
+    missing = key[len(add):]
+    verdict, confounded, suggestion = first.verdict, [], None
+    close = [f for f in alternatives if f.bic - ladder[-1].bic < CLOSE]
+    rival_sets = [f for f in alternatives if f.bic - ladder[-1].bic < RIVAL]
+    if missing:
+        verdict = "ambiguous" if close else "+".join(missing)
+    if rival_sets:
+        confounded = ["+".join(ladder[-1].effects[len(add):])] + ["+".join(f.effects[len(add):]) for f in rival_sets]
+        suggestion = suggest_measurement(fitter, ladder[-1], rival_sets[0])
+    elif first.rivals and not missing:
+        confounded = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
+        suggestion = suggest_measurement(fitter, first.ranking[0], first.rivals[0])
+    return Diagnosis(data, sigma, source, data.radius_mm, ladder, first.ranking, first.not_detectable, verdict,
+                     confounded, suggestion, n_eff, notes, steps=steps, alternatives=alternatives,
+                     n_given=len(add), fitter=fitter)

@@ -35,6 +35,7 @@ from .layer import Layer
 from .model import Model
 from .offset import Offset
 from .registry import EFFECTS, effect, register, unregister
+from .repeat import Repeat, instances, numbered
 from .stiffening import Stiffening
 from .viscoelastic import Viscoelastic
 
@@ -47,4 +48,4 @@ del _e
 
 __all__ = ["ADHESION_RANGE_MM", "BASE_PARAMETERS", "CONTACT_POINT", "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED",
            "Adhesion", "Effect", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset",
-           "Stiffening", "Viscoelastic", "effect", "register", "unregister"]
+           "Repeat", "Stiffening", "Viscoelastic", "effect", "instances", "numbered", "register", "unregister"]

@@ -144,8 +144,15 @@ class ForwardSpec:
         """The material, or the layered sample, of the finite-element model."""
         from ..mechanics.layers import RIGID, Layer, LayeredSample
 
-        layers = [(t, r) for t, r in self.layers]
-        if not layers or (len(layers) == 1 and self.below == 1.0):
+        layers = []
+        for t, r in self.layers:  # adjacent materials of equal modulus are one layer
+            if layers and layers[-1][1] == r:
+                layers[-1] = (layers[-1][0] + t, r)
+            else:
+                layers.append((t, r))
+        if layers and layers[-1][1] == self.below:  # the last layer is the half-space itself
+            layers.pop()
+        if not layers:
             return self.law(1.0)
         below = RIGID if math.isinf(self.below) else self.law(self.below)
         return LayeredSample(tuple(Layer(t, self.law(r)) for t, r in layers), below)
@@ -269,6 +276,11 @@ class Effect:
     def surface_axes(self, max_depth_mm: float) -> tuple:
         """Axes (:class:`~skin_indent.response_surface.effect_surface.EffectAxis`) of an :data:`ELASTIC` effect."""
         raise NotImplementedError(f"{self.name} is not an axis of a response surface")
+
+    def fe_bounds(self, max_depth_mm: float) -> dict:
+        """``{fit name: (lower, upper)}`` of an :data:`ELASTIC` effect fitted with the
+        finite-element model in the loop (default: the range of its surface axes)."""
+        return {a.name: (float(min(a.nodes)), float(max(a.nodes))) for a in self.surface_axes(max_depth_mm)}
 
     def unit_values(self, axis_values: dict) -> dict:
         """Model parameters at E = 1 kPa of the surface-axis values (an :data:`ELASTIC` effect)."""

@@ -22,14 +22,12 @@ class Layer(Effect):
                         "modulus of the material below over that of the layer (inf: rigid base)"),
     )
     stage = ELASTIC
+    #: two layers (dermis, hypodermis) over a half-space or a rigid base: ``("layer", "layer")``
+    repeatable = True
 
     def configure(self, spec: ForwardSpec, values: dict) -> None:
-        if values["ratio"] == 1.0:
-            return
-        if not spec.layers:
-            spec.layers.append((values["thickness_mm"], 1.0))
-        else:  # a layer under the previous ones: its modulus is what was below them
-            spec.layers.append((values["thickness_mm"], spec.below))
+        # a layer under the previous ones has the modulus of what was below them
+        spec.layers.append((values["thickness_mm"], spec.below))
         spec.below = spec.below * values["ratio"]
 
     # fitted on a surface over thickness and compliance = 1 / ratio

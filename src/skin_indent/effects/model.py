@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from .base import BASE_PARAMETERS, EffectParameter, ForwardSpec
 from .registry import effect as _effect
+from .repeat import instances
 
 
 @dataclass(frozen=True)
@@ -15,7 +16,9 @@ class Model:
     Parameters
     ----------
     effects : tuple of str or Effect
-        Effects of the vocabulary (:data:`~skin_indent.effects.EFFECTS`), each at most once.
+        Effects of the vocabulary (:data:`~skin_indent.effects.EFFECTS`), each at most once
+        except repeatable ones: ``("layer", "layer")`` is two bonded layers over a
+        half-space (the second layer's parameters are ``thickness2_mm``, ``ratio2``).
     radius_mm : float
         Sphere radius, mm.
 
@@ -32,15 +35,13 @@ class Model:
     def __post_init__(self):
         from ..mechanics.contact import SphericalIndenter
 
-        names = tuple(_effect(e).name for e in self.effects)
-        if len(set(names)) != len(names):
-            raise ValueError(f"each effect may appear once, got {names}")
+        names = tuple(e.name for e in instances(self.effects))
         object.__setattr__(self, "effects", names)
         SphericalIndenter(self.radius_mm)
 
     @property
     def effect_objects(self) -> tuple:
-        return tuple(_effect(e) for e in self.effects)
+        return instances(self.effects)
 
     @property
     def name(self) -> str:

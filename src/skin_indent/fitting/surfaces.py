@@ -3,9 +3,9 @@
 - :func:`surface_for`: the neo-Hookean surface F(h; E, nu) for a sphere and a depth
   range; one unit-radius surface serves every radius by the exact similarity
   F = E R^2 phi(h/R, nu).
-- :func:`elastic_core`: the surface a fitted model needs for its elastic effects (none:
-  the neo-Hookean surface; one: an effect surface over its axes), on a grid sized to
-  the curve (depths, the E range around its Hertz estimate).
+- :func:`elastic_core`: the elastic force model a fitted model needs for its elastic
+  effects (none: the neo-Hookean surface; one: an effect surface over its axes, on a
+  grid sized to the curve; more, e.g. two layers: the finite-element model in the loop).
 """
 
 from __future__ import annotations
@@ -111,20 +111,25 @@ def elastic_core(effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: 
                  context: Context | None = None, mesh: str = "coarse"):
     """The elastic force model of a fitted model with these effects (see the module docstring).
 
-    Raises
-    ------
-    ValueError
-        When more than one effect acts on the elastic response (no surface combines them).
+    With more than one elastic effect (two layers, layer and stiffening...) no surface
+    combines them: the core is then a :class:`~skin_indent.models.fe_core.FECore`, the
+    finite-element model in the loop.
     """
-    from ..effects import ELASTIC, effect
+    from ..effects import ELASTIC
 
-    elastic = [e for e in (effect(x) for x in effects) if e.stage == ELASTIC]
-    kw = context_of(context).build_options()
+    from ..effects import instances
+
+    elastic = [e for e in instances(effects) if e.stage == ELASTIC]
+    context = context_of(context)
+    kw = context.build_options()
+    if len(elastic) > 1:  # no surface combines them: the finite-element model in the loop
+        from ..models.fe_core import FECore
+
+        return FECore(elastic, radius_mm=radius_mm, max_depth_mm=max_depth_mm, e_star_kPa=e_star_kPa, mesh=mesh,
+                      workers=context.workers)
     if not elastic:
         grid = curve_grid(e_star_kPa, 1.25 * max_depth_mm, BASE_NU)
         return ResponseSurface.load_or_build(grid, default_settings(radius_mm=radius_mm, mesh=mesh), **kw)
-    if len(elastic) > 1:
-        raise ValueError(f"no surface combines {' and '.join(e.name for e in elastic)} yet: add one of them")
     from ..response_surface.effect_surface import EffectSurface
 
     e = elastic[0]

@@ -273,6 +273,24 @@ class AxisymmetricSolid:
             return f, None
         return f, self._element_tangents(A55)
 
+    def assemble_stress(self, P5: np.ndarray) -> np.ndarray:
+        """Nodal force vector ``int P : dF/du dV`` (mN) of a stress field given at the quadrature points.
+
+        Parameters
+        ----------
+        P5 : ndarray, shape (5, nel, nq)
+            Components :data:`F_COMPONENTS` of a first Piola stress (or of its
+            derivative with respect to a parameter), kPa (per unit of the parameter).
+
+        Returns
+        -------
+        ndarray, shape (n_dofs,)
+            mN (per unit of the parameter).
+        """
+        nel, nq = self.r.shape
+        fe = np.matmul(self._GeT, (P5 * self.dV).transpose(1, 0, 2).reshape(nel, 5 * nq, 1))[:, :, 0]
+        return np.bincount(self.element_dofs.T.ravel(), weights=fe.ravel(), minlength=self.n_dofs)
+
     def tangent(self, u: np.ndarray) -> np.ndarray:
         """Element tangents (nel, nloc, nloc) at ``u``, reusing the kinematics of the last
         :meth:`forces` call when it was at the same ``u`` (the usual Newton sequence:

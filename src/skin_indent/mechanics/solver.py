@@ -376,7 +376,7 @@ class IndentationProblem:
             return u + (u_prev - u) * ((h_try - h_cur) / (h_prev - h_cur))
         return u.copy()
 
-    def solve(self, depths_mm, progress=None, predictor: str = "auto", times_s=None):
+    def solve(self, depths_mm, progress=None, predictor: str = "auto", times_s=None, on_converged=None):
         """Move the sphere through ``depths_mm`` and return the forces.
 
         Parameters
@@ -395,6 +395,11 @@ class IndentationProblem:
             First iterate of each increment: linear extrapolation in depth, or the
             self-similar map of :mod:`.predictor` (needs geometrically spaced depths;
             "auto" uses it when they are).
+        on_converged : callable, optional
+            Called as ``on_converged(i, u, depth)`` with the converged displacement
+            field ``u`` (mm, not to be modified) at each requested depth (mm), before
+            ``progress``; used for the parameter sensitivities
+            (:mod:`.sensitivity`).
 
         Returns
         -------
@@ -461,6 +466,8 @@ class IndentationProblem:
                         f"{self.max_cuts} step cuts: relative residual {rel:.2e} > {self.rtol:.0e}"
                     )
             forces[i] = force
+            if on_converged is not None:
+                on_converged(i, u, float(h_cur))
             if progress is not None:
                 progress(i)
         report.wall_time_s = time.perf_counter() - t0

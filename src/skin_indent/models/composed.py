@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ..effects import DEPTH, ELASTIC, STAGE_ORDER, WEIGHED, Evaluation, effect
+from ..effects import DEPTH, ELASTIC, STAGE_ORDER, WEIGHED, Evaluation, instances
 
 
 class ComposedModel:
@@ -35,7 +35,7 @@ class ComposedModel:
 
     def __init__(self, core, effects, data):
         self.core = core
-        self.effects = tuple(effect(e) for e in effects)
+        self.effects = instances(effects)
         self.data = data
         self.depth_mm = np.asarray(data.depth_mm, dtype=float)
         self.time_s = None if data.time_s is None else np.asarray(data.time_s, dtype=float)
@@ -69,8 +69,12 @@ class ComposedModel:
         if d.shape != self.depth_mm.shape or not np.array_equal(d, self.depth_mm):
             raise ValueError(f"model {self.name} is bound to its measured history: pass its own depths")
 
-    def evaluate(self, theta) -> Evaluation:
-        """All stages at the parameters ``theta`` (the force is ``.force_mN``)."""
+    def evaluate(self, theta, core_change=None) -> Evaluation:
+        """All stages at the parameters ``theta`` (the force is ``.force_mN``).
+
+        ``core_change``, an array over the depths in contact, is added to the elastic force
+        before the later stages act (directional derivatives through them).
+        """
         theta = np.asarray(theta, dtype=float)
         ev = Evaluation(self.depth_mm, self.time_s, self.depth_mm.copy(), self.radius_mm, cache=self._cache)
         values = [(e, dict(zip(e.fit_names, theta[s]))) for e, s in self._slices]
@@ -85,6 +89,8 @@ class ComposedModel:
             if h[touch].max() > top * (1 + 1e-9):
                 raise ValueError(f"depth minus offset reaches {h.max():.4g} mm, beyond the surface's {top:.4g} mm")
             force[touch] = self.core.force(h[touch], theta[: self._n_core])
+            if core_change is not None:
+                force[touch] += core_change
         ev.force_mN = force
         for e, fit in values:
             if e.stage != DEPTH:
@@ -96,11 +102,30 @@ class ComposedModel:
         return self.evaluate(theta).force_mN
 
     def jacobian(self, depth_mm, theta) -> np.ndarray:
-        """Central differences (relative steps; one-sided at the box faces); dF/dE exact where F is linear in E."""
+        """dF/dtheta: central differences of relative step 1e-5 (one-sided at the box faces),
+        dF/dE exact where F is linear in E; where the core is the finite-element model in the
+        loop, its own derivatives (:meth:`~skin_indent.models.fe_core.FECore.jacobian`)
+        carried through the later stages (which act linearly on the elastic force)."""
         theta = np.asarray(theta, dtype=float)
         lo, hi = self.bounds
         J = np.empty((self.depth_mm.size, theta.size))
-        for i in range(theta.size):
+        in_loop = hasattr(self.core, "prefetch")
+        first = 0
+        if in_loop:  # the core's own derivatives, carried through the later stages
+            ev = self.evaluate(theta)
+            touch = ev.h_mm > 0
+            Jc = self.core.jacobian(ev.h_mm[touch], theta[: self._n_core])
+            scale = max(float(np.max(np.abs(ev.force_mN))), 1e-300)
+            for i in range(self._n_core):
+                top = float(np.max(np.abs(Jc[:, i]))) if Jc.size else 0.0
+                if top == 0.0:
+                    J[:, i] = 0.0
+                    continue
+                eps = 1e-6 * scale / top
+                J[:, i] = (self.evaluate(theta, eps * Jc[:, i]).force_mN
+                           - self.evaluate(theta, -eps * Jc[:, i]).force_mN) / (2 * eps)
+            first = self._n_core
+        for i in range(first, theta.size):
             if i == 0 and self._linear_in_E:  # F is exactly proportional to the modulus of the top material
                 J[:, 0] = self.force(depth_mm, theta) / theta[0]
                 continue

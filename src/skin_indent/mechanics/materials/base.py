@@ -51,6 +51,22 @@ def lame_parameters(E_kPa: float, nu: float) -> tuple[float, float]:
     return mu, lam
 
 
+def lame_parameter_derivatives(E_kPa: float, nu: float) -> dict[str, tuple[float, float]]:
+    """Derivatives of the Lame parameters ``(mu, lam)`` of :func:`lame_parameters`.
+
+    Returns
+    -------
+    dict
+        ``{"E_kPa": (dmu/dE, dlam/dE), "nu": (dmu/dnu, dlam/dnu)}``: per kPa of E
+        (dimensionless) and per unit of nu (kPa).
+    """
+    q = (1.0 + nu) * (1.0 - 2.0 * nu)
+    return {
+        "E_kPa": (1.0 / (2.0 * (1.0 + nu)), nu / q),
+        "nu": (-E_kPa / (2.0 * (1.0 + nu) ** 2), E_kPa * (1.0 + 2.0 * nu**2) / q**2),
+    }
+
+
 def check_elastic_constants(E_kPa: float, nu: float) -> None:
     """Raise ``ValueError`` with a one-line message for inadmissible (E, nu)."""
     if not (isinstance(E_kPa, (int, float, np.floating)) and math.isfinite(E_kPa)):
@@ -128,6 +144,10 @@ class Material:
     path_independent: bool = True
     #: True when the law is written in small-strain (linearised) kinematics.
     small_strain: bool = False
+    #: Parameters (dataclass field names) whose stress derivative
+    #: :meth:`stress_parameter_derivative` provides (direct differentiation of the
+    #: force curve, :mod:`skin_indent.mechanics.sensitivity`); empty: none.
+    sensitivity_parameters: tuple[str, ...] = ()
 
     @property
     def reference_modulus(self) -> float:
@@ -170,6 +190,27 @@ class Material:
         P_red = P[rows, cols]
         A_red = A[rows, cols][:, rows, cols]
         return P_red, A_red
+
+    def stress_parameter_derivative(self, H: np.ndarray, name: str) -> np.ndarray:
+        """Partial derivative dP/dp of the first Piola stress at fixed ``H``.
+
+        Parameters
+        ----------
+        H : ndarray, shape (3, 3, ...)
+            Displacement gradient.
+        name : str
+            One of :attr:`sensitivity_parameters`.
+
+        Returns
+        -------
+        ndarray, shape of ``H``
+            kPa per unit of the parameter.
+        """
+        raise NotImplementedError(f"{self.name} has no parameter derivatives")
+
+    def reference_modulus_derivative(self, name: str) -> float:
+        """d(reference_modulus)/dp for a parameter of :attr:`sensitivity_parameters` (kPa per unit of p)."""
+        raise NotImplementedError(f"{self.name} has no parameter derivatives")
 
     def cauchy(self, H: np.ndarray) -> np.ndarray:
         """Cauchy stress sigma = P F^T / J in kPa (true stress)."""

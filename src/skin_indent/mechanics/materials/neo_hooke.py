@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .base import Material, ParameterInfo, check_elastic_constants, kinematics, lame_parameters
+from .base import (Material, ParameterInfo, check_elastic_constants, kinematics, lame_parameter_derivatives,
+                   lame_parameters)
 
 
 @dataclass(frozen=True)
@@ -40,6 +41,7 @@ class NeoHooke(Material):
     nu: float
 
     name = "neo-hooke"
+    sensitivity_parameters = ("E_kPa", "nu")
     parameter_info = (
         ParameterInfo("E_kPa", "kPa", 0.0, np.inf, "Young's modulus at small strain"),
         ParameterInfo("nu", "-", -1.0, 0.5, "Poisson's ratio at small strain"),
@@ -56,6 +58,21 @@ class NeoHooke(Material):
     def lame(self) -> tuple[float, float]:
         """``(mu, lam)`` in kPa."""
         return lame_parameters(self.E_kPa, self.nu)
+
+    def stress_parameter_derivative(self, H, name):
+        """dP/dp at fixed ``H`` (kPa per unit of p), p = ``"E_kPa"`` or ``"nu"``.
+
+        P is linear in (mu, lambda): dP/dp is the stress with the Lame parameters
+        replaced by their derivatives (:func:`~.base.lame_parameter_derivatives`).
+        """
+        if name not in self.sensitivity_parameters:
+            raise ValueError(f"{self.name} has no parameter {name!r}")
+        dmu, dlam = lame_parameter_derivatives(self.E_kPa, self.nu)[name]
+        return PointwiseNeoHooke(dmu, dlam).stress(H)
+
+    def reference_modulus_derivative(self, name):
+        """1 for ``"E_kPa"`` (the reference modulus is E), else 0."""
+        return 1.0 if name == "E_kPa" else 0.0
 
     def energy(self, H):
         mu, lam = self.lame

@@ -81,6 +81,7 @@ class NeoHookeStiffening(Material):
     C20_kPa: float
 
     name = "neo-hooke-stiffening"
+    sensitivity_parameters = ("E_kPa", "nu", "C20_kPa")
     parameter_info = (
         ParameterInfo("E_kPa", "kPa", 0.0, np.inf, "Young's modulus at small strain"),
         ParameterInfo("nu", "-", -1.0, 0.5, "Poisson's ratio at small strain"),
@@ -138,6 +139,23 @@ class NeoHookeStiffening(Material):
         _, Finv, lnJ, _ = kin
         _, b, _, D, _ = self._invariants(H, Finv, lnJ)
         return self._nh._stress(H, *kin) + (2.0 * self.C20_kPa * b) * D
+
+    def stress_parameter_derivative(self, H, name):
+        """dP/dp at fixed ``H`` (kPa per unit of p), p = ``"E_kPa"``, ``"nu"`` or ``"C20_kPa"``.
+
+        E and nu enter only the neo-Hookean part (linear in the Lame parameters);
+        the stiffening stress ``2 C20 b D`` is linear in C20: dP/dC20 = 2 b D
+        (dimensionless).
+        """
+        if name == "C20_kPa":
+            _, Finv, lnJ, _ = kinematics(H)
+            _, b, _, D, _ = self._invariants(H, Finv, lnJ)
+            return (2.0 * b) * D
+        return self._nh.stress_parameter_derivative(H, name)
+
+    def reference_modulus_derivative(self, name):
+        """1 for ``"E_kPa"`` (the reference modulus is E), else 0."""
+        return 1.0 if name == "E_kPa" else 0.0
 
     def stress_and_tangent(self, H):
         P, A = self._nh.stress_and_tangent(H)

@@ -1,0 +1,342 @@
+"""The elastic force of any combination of elastic effects, with the finite-element model in the loop.
+
+A response surface covers the base model and each elastic effect alone. Two layers
+(dermis over hypodermis over muscle), a layer with strain stiffening, or any other
+combination would need a surface over every parameter at once (thousands of runs), so
+:class:`FECore` evaluates the finite-element model itself at the parameters a fit asks
+for. It is an elastic core of :class:`~skin_indent.models.ComposedModel` like a surface
+(``parameter_names``, ``bounds``, ``depth_range``, ``force``), so offsets, relaxation
+and adhesion act on it as on a surface.
+
+What keeps it cheap and smooth:
+
+- **One run per parameter set, any depth.** The force is exactly proportional to the
+  modulus of the top material (every other modulus is relative to it), so one
+  unit-modulus run (E = 1 kPa) to the depth ceiling serves every E, and the force at
+  any depth comes from the spline of F / h^1.5 over the solved increments, as in
+  :func:`~skin_indent.simulate.simulate`; a contact-point offset costs no run.
+- **A mesh that moves with the layers.** The mesh is built once for reference
+  thicknesses and *morphed* for others (depths mapped piecewise linearly so every
+  interface moves to its new depth and every quadrature point stays in its material),
+  so the force is a smooth function of the thicknesses and finite differences in them
+  are meaningful. It is rebuilt when a thickness leaves [0.8, 1.25] x its reference.
+- **Finite differences in parallel.** :meth:`FECore.prefetch` runs the parameter sets
+  of a Jacobian at once on the local processes of the :class:`~skin_indent.Context`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import weakref
+
+import numpy as np
+
+from ..effects import ELASTIC, ForwardSpec, instances
+
+#: Newton tolerance of the runs in the loop: finite differences of relative step
+#: :data:`RELATIVE_STEP` need forces converged far below the step
+RTOL = 1e-8
+#: relative step of the one-sided finite differences in the core parameters
+RELATIVE_STEP = 1e-4
+#: a thickness may move by these factors before the mesh is rebuilt for it
+MORPH_RANGE = (0.8, 1.25)
+#: solved depths of a run (geometric, to the ceiling): on two layers over a half-space the
+#: spline between them is within 1.4e-3 of direct solves at 0.05 mm and 5e-4 beyond 0.1 mm
+#: (12, the default of simulate for a half-space, gives 2.8e-3 there; 30 gives 1.1e-3 at 1.3x the cost)
+INCREMENTS = 20
+#: Poisson's ratio range of the runs in the loop
+NU_RANGE = (0.2, 0.499)
+
+
+def _solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float, sensitivities: bool):
+    """One unit-modulus run to the ceiling (a worker task).
+
+    Returns the solved depths (mm), the forces there (mN) and, with ``sensitivities``,
+    their derivatives with respect to every material parameter (direct differentiation,
+    :mod:`skin_indent.mechanics.sensitivity`), else None.
+    """
+    from ..mechanics.contact import SphericalIndenter
+    from ..simulate import simulate
+
+    depths = np.geomspace(ceiling_mm / 100.0, ceiling_mm, INCREMENTS)
+    curve = simulate(sample, SphericalIndenter(radius_mm), depths, mesh=imesh, rtol=rtol, solve_at_outputs=True,
+                     sensitivities=sensitivities)
+    return curve.solved_depth_mm, curve.solved_force_mN, curve.sensitivities
+
+
+def material_parameters(sample) -> dict:
+    """``{(k, name): value}`` of every material parameter of a sample (k as in ``sample.materials``)."""
+    from ..mechanics.layers import LayeredSample
+
+    laws = sample.materials if isinstance(sample, LayeredSample) else [sample]
+    return {(k, name): float(getattr(law, name)) for k, law in enumerate(laws) for name in law.sensitivity_parameters}
+
+
+def morph(imesh, reference_mm, interfaces_mm, rigid_base: bool):
+    """``imesh`` (built for interfaces at depths ``reference_mm``) with its interfaces moved to ``interfaces_mm``.
+
+    Depths are mapped piecewise linearly between interfaces; below the last interface
+    of a half-space the shift decays linearly to zero at the bottom of the domain; with a
+    rigid base the last interface is the bottom of the mesh.
+
+    Parameters
+    ----------
+    imesh : IndentationMesh
+    reference_mm, interfaces_mm : sequence of float
+        Interface depths (mm, increasing) the mesh was built for and the new ones.
+    rigid_base : bool
+    """
+    from ..mechanics.mesh import IndentationMesh, _with_named_boundaries
+
+    ref = np.r_[0.0, np.asarray(reference_mm, dtype=float)]
+    new = np.r_[0.0, np.asarray(interfaces_mm, dtype=float)]
+    p = imesh.mesh.p.copy()
+    d = -p[1]
+    bottom = float(d.max())
+    inside = d <= ref[-1]
+    mapped = np.interp(d, ref, new)
+    if not rigid_base:
+        shift = (new[-1] - ref[-1]) * np.clip((bottom - d) / (bottom - ref[-1]), 0.0, 1.0)
+        mapped = np.where(inside, mapped, d + shift)
+    p[1] = -mapped
+    mesh = type(imesh.mesh)(p, imesh.mesh.t)
+    lz = float(new[-1]) if rigid_base else bottom
+    return IndentationMesh(_with_named_boundaries(mesh, imesh.extent_mm, lz), imesh.name + " (morphed)",
+                           imesh.contact_radius_mm, imesh.surface_size_mm, imesh.extent_mm)
+
+
+def _geometry(sample) -> tuple:
+    """What of a sample moves the mesh: the interface depths and whether the base is rigid."""
+    from ..mechanics.layers import LayeredSample
+
+    if not isinstance(sample, LayeredSample):
+        return ()
+    return (tuple(float(v) for v in sample.interfaces_mm), sample.rigid_base)
+
+
+class FECore:
+    """Elastic force F(h; E, nu, fit parameters of the elastic effects) by finite-element runs.
+
+    Parameters
+    ----------
+    effects : sequence of str or Effect
+        The model's effects; the elastic ones (:data:`~skin_indent.effects.ELASTIC`) are
+        this core's, repeats allowed (``("layer", "layer")``).
+    radius_mm : float
+        Sphere radius, mm.
+    max_depth_mm : float
+        Deepest indentation to cover, mm (the runs reach a little further, so that a
+        contact-point offset can move the curve).
+    e_star_kPa : float
+        Hertz estimate of E / (1 - nu^2), kPa: the range of E is E*/30 to 30 E*.
+    mesh : str
+        Mesh family member (``"coarse"`` in diagnosis).
+    workers : int, optional
+        Local processes for :meth:`prefetch` (default: the available cores, at most 2 per
+        Jacobian's worth of runs is typical).
+
+    Attributes
+    ----------
+    runs : int
+        Finite-element runs made so far; ``run_time_s`` their wall time.
+    """
+
+    def __init__(self, effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: float, mesh: str = "coarse",
+                 workers: int | None = None):
+        from ..fitting.surfaces import nice_depth
+
+        self.effects = tuple(e for e in instances(effects) if e.stage == ELASTIC)
+        self.radius_mm = float(radius_mm)
+        self.ceiling_mm = nice_depth(1.15 * float(max_depth_mm))
+        self.depth_range = (0.0, self.ceiling_mm)
+        self.mesh_name = mesh
+        self.workers = workers
+        names, lo, hi = ["E_kPa", "nu"], [e_star_kPa / 30.0, NU_RANGE[0]], [e_star_kPa * 30.0, NU_RANGE[1]]
+        self._slices = []
+        for e in self.effects:
+            bounds = e.fe_bounds(nice_depth(float(max_depth_mm)))
+            start = len(names)
+            for k in e.fit_names:
+                names.append(k)
+                lo.append(bounds[k][0])
+                hi.append(bounds[k][1])
+            self._slices.append((e, slice(start, len(names))))
+        self.parameter_names = tuple(names)
+        self.bounds = (np.array(lo, dtype=float), np.array(hi, dtype=float))
+        self.relative_step = RELATIVE_STEP
+        self._curves: dict = {}
+        self._ref = None
+        self._executor = None
+        self.runs = 0
+        self.run_time_s = 0.0
+
+    @property
+    def name(self) -> str:
+        return "finite elements in the loop: neo-hooke" + "".join(f"+{e.name}" for e in self.effects)
+
+    # ----------------------------------------------------------------- parameters
+    def spec(self, rest) -> ForwardSpec:
+        """The unit-modulus :class:`ForwardSpec` of the core parameters after E (``nu``, effect fit values)."""
+        rest = np.asarray(rest, dtype=float)
+        spec = ForwardSpec(1.0, float(rest[0]))
+        for e, s in self._slices:
+            fit = dict(zip(e.fit_names, rest[s.start - 1:s.stop - 1]))
+            values = e.from_fit(fit, 1.0)
+            # an interface that is there at ratio 1 keeps the mesh the same on both sides of 1
+            values = {k: (1.0 + 1e-12 if (k.startswith("ratio") and v == 1.0) else v) for k, v in values.items()}
+            e.configure(spec, values)
+        return spec
+
+    def _check(self, theta) -> np.ndarray:
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape != (len(self.parameter_names),):
+            raise ValueError(f"theta must hold {self.parameter_names}, got shape {theta.shape}")
+        lo, hi = self.bounds
+        bad = ~np.isfinite(theta) | (theta < lo - 1e-12 * np.abs(lo)) | (theta > hi + 1e-12 * np.abs(hi))
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ValueError(f"{self.parameter_names[i]} = {theta[i]:g} is outside [{lo[i]:g}, {hi[i]:g}] of the "
+                             f"finite-element fit")
+        return theta
+
+    # ----------------------------------------------------------------- meshes
+    def _mesh(self, sample):
+        """The (possibly morphed) mesh for a sample: same interfaces as the reference -> morph."""
+        from ..mechanics.layers import LayeredSample
+        from ..mechanics.mesh import graded_mesh
+
+        if not isinstance(sample, LayeredSample):
+            key = (0, False)
+            if self._ref is None or self._ref[0] != key:
+                self._ref = (key, None, graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name))
+            return self._ref[2]
+        interfaces = np.asarray(sample.interfaces_mm, dtype=float)
+        key = (interfaces.size, sample.rigid_base)
+        if self._ref is not None and self._ref[0] == key:
+            ratio = interfaces / self._ref[1]
+            if np.all((ratio >= MORPH_RANGE[0]) & (ratio <= MORPH_RANGE[1])):
+                if np.array_equal(interfaces, self._ref[1]):
+                    return self._ref[2]
+                return morph(self._ref[2], self._ref[1], interfaces, sample.rigid_base)
+        if sample.rigid_base:
+            imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=interfaces[:-1],
+                                rigid_base_mm=float(interfaces[-1]))
+        else:
+            imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=interfaces)
+        self._ref = (key, interfaces, imesh)
+        return imesh
+
+    def reset_mesh(self) -> None:
+        """Build the mesh anew for the next parameters (a new reference for morphing)."""
+        self._ref = None
+
+    # ----------------------------------------------------------------- runs
+    @staticmethod
+    def _key(rest) -> tuple:
+        return tuple(float(f"{v:.12g}") for v in np.asarray(rest, dtype=float))
+
+    def _pool(self):
+        if self._executor is None:
+            from ..response_surface._executors import available_cpus, make_executor
+
+            workers = self.workers if self.workers is not None else min(2, available_cpus())
+            self._executor = make_executor(workers)
+            weakref.finalize(self, self._executor.close)
+        return self._executor
+
+    def prefetch(self, thetas) -> None:
+        """Make the runs of several parameter vectors (full ``theta``) at once, in parallel."""
+        self._run([self._check(theta)[1:] for theta in thetas])
+
+    def _run(self, rests, sensitivities: bool = False) -> None:
+        todo = {}
+        for rest in rests:
+            key = self._key(rest)
+            have = self._curves.get(key)
+            if (have is None or (sensitivities and have[2] is None)) and key not in todo:
+                sample = self.spec(rest).sample()
+                todo[key] = (sample, self.radius_mm, self.ceiling_mm, self._mesh(sample), RTOL, sensitivities)
+        if not todo:
+            return
+        t0 = time.perf_counter()
+        if len(todo) == 1:
+            (key, args), = todo.items()
+            self._curves[key] = _solve_unit(*args)
+        else:
+            for key, value, error in self._pool().imap_unordered(_solve_unit, todo.items()):
+                if error is not None:
+                    raise error
+                self._curves[key] = value
+        self.runs += len(todo)
+        self.run_time_s += time.perf_counter() - t0
+
+    def unit_force(self, depth_mm, rest) -> np.ndarray:
+        """Force (mN) at E = 1 kPa of the core parameters after E, at depths 0 < h <= ceiling (mm)."""
+        from ..simulate import not_a_knot_spline
+
+        self._run([rest])
+        h_s, F_s, _ = self._curves[self._key(rest)]
+        h = np.asarray(depth_mm, dtype=float)
+        return not_a_knot_spline(h_s, F_s / h_s**1.5, h) * h**1.5
+
+    def force(self, depth_mm, theta) -> np.ndarray:
+        """Force (mN) at depths 0 < h <= ``depth_range[1]`` (mm)."""
+        theta = self._check(theta)
+        h = np.asarray(depth_mm, dtype=float)
+        if np.any(h <= 0) or np.any(h > self.ceiling_mm * (1 + 1e-9)):
+            raise ValueError(f"depths must lie in (0, {self.ceiling_mm:g}] mm for this finite-element fit")
+        return theta[0] * self.unit_force(h, theta[1:])
+
+    def jacobian(self, depth_mm, theta) -> np.ndarray:
+        """dF/dtheta (mN per unit) at depths 0 < h <= ceiling.
+
+        Exact in E (F is proportional to it); by direct differentiation of the run where
+        a parameter acts on the material parameters only (nu, moduli ratios, C20 / E: the
+        chain rule through the cheap map from ``theta`` to the materials); by one-sided
+        differences of finite-element runs (made at once, in parallel, on a morphed mesh)
+        where it moves the geometry (a thickness) or changes the set of materials (a rigid base).
+        """
+        from ..simulate import not_a_knot_spline
+
+        theta = self._check(theta)
+        h = np.asarray(depth_mm, dtype=float)
+        lo, hi = self.bounds
+        rest = theta[1:]
+        self._run([rest], sensitivities=True)
+        h_s, F_s, S = self._curves[self._key(rest)]
+        sample0 = self.spec(rest).sample()
+        p0 = material_parameters(sample0)
+        geometry0 = _geometry(sample0)
+
+        def spline(values):
+            return not_a_knot_spline(h_s, values / h_s**1.5, h) * h**1.5
+
+        J = np.empty((h.size, theta.size))
+        J[:, 0] = spline(F_s)  # dF/dE: the unit force
+        numeric = []
+        for i in range(1, theta.size):
+            step = RELATIVE_STEP * max(abs(theta[i]), 1e-2 * (hi[i] - lo[i]))
+            t = theta.copy()
+            t[i] = theta[i] + step if theta[i] + step <= hi[i] else theta[i] - step
+            tiny = theta.copy()
+            tiny[i] = theta[i] + 1e-3 * (t[i] - theta[i])
+            sample1 = self.spec(tiny[1:]).sample()
+            p1 = material_parameters(sample1)
+            if S is not None and _geometry(sample1) == geometry0 and p1.keys() == p0.keys():
+                dd = tiny[i] - theta[i]
+                dF = sum(S[k] * (p1[k] - p0[k]) / dd for k in p0 if p1[k] != p0[k])
+                J[:, i] = theta[0] * spline(dF if not np.isscalar(dF) else np.zeros_like(F_s))
+            else:
+                numeric.append((i, t))
+        if numeric:
+            self._run([t[1:] for _, t in numeric])
+            F0 = self.force(h, theta)
+            for i, t in numeric:
+                J[:, i] = (self.force(h, t) - F0) / (t[i] - theta[i])
+        return J
+
+    def close(self) -> None:
+        if self._executor is not None:
+            self._executor.close()
+            self._executor = None

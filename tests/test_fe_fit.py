@@ -1,0 +1,178 @@
+"""Effects together: repeated effects, the finite-element model in the loop, its derivatives, the climb.
+
+The finite-element core (:class:`skin_indent.models.fe_core.FECore`) replaces a response
+surface where none combines the elastic effects of a model (two layers, layer and
+stiffening). Checked here: it gives the forward model's forces, it is smooth in the
+layer thicknesses (mesh morphing), its derivatives are the forward model's, a fit with
+it recovers the parameters of a curve of our own, and the automatic ladder names two
+effects at once. The full fits (minutes each on 2 cores) are behind the ``slow`` marker;
+the default run checks the pieces and one short fit in the loop.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from skin_indent.effects import Model, instances
+from skin_indent.mechanics.contact import SphericalIndenter
+from skin_indent.mechanics.mesh import graded_mesh
+from skin_indent.models.fe_core import FECore, morph
+from skin_indent.simulate import simulate
+
+R = 6.22
+#: forearm-like: dermis over a soft hypodermis over muscle (moduli relative to the dermis)
+TWO_LAYERS = np.array([17.5, 0.48, 1.0, 17.5 / 2.9, 3.0, 2.9 / 9.4])
+
+
+def test_repeated_layers_are_numbered_and_stack():
+    m = Model(("layer", "layer"))
+    assert m.parameter_names == ("E_kPa", "nu", "thickness_mm", "ratio", "thickness2_mm", "ratio2")
+    sample = m.sample({"E_kPa": 10.0, "nu": 0.45, "thickness_mm": 1.0, "ratio": 0.2, "thickness2_mm": 3.0,
+                       "ratio2": 3.0})
+    assert [layer.thickness_mm for layer in sample.layers] == [1.0, 3.0]
+    assert [layer.material.E_kPa for layer in sample.layers] == [10.0, pytest.approx(2.0)]
+    assert sample.substrate.E_kPa == pytest.approx(6.0)
+    # a second layer of the same modulus is no interface: one layer of the summed thickness
+    merged = m.sample({"E_kPa": 10.0, "nu": 0.45, "thickness_mm": 1.0, "ratio": 1.0, "thickness2_mm": 3.0,
+                       "ratio2": 0.5})
+    assert [layer.thickness_mm for layer in merged.layers] == [4.0]
+    with pytest.raises(ValueError, match="once"):
+        instances(("offset", "offset"))
+    assert [e.fit_names for e in instances(("layer", "layer"))] == [("thickness_mm", "compliance"),
+                                                                     ("thickness2_mm", "compliance2")]
+
+
+@pytest.fixture(scope="module")
+def core():
+    return FECore(("layer", "layer"), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
+
+
+def test_fe_core_is_the_forward_model(core):
+    """The core's force equals a direct run of the same sample (spline between the solved depths)."""
+    h = np.linspace(0.05, 0.6, 12)
+    F = core.force(h, TWO_LAYERS)
+    spec = core.spec(TWO_LAYERS[1:])
+    sample = spec.sample()
+    direct = simulate(sample, SphericalIndenter(R), h, mesh=core._mesh(sample), solve_at_outputs=True).force_mN
+    assert np.max(np.abs(TWO_LAYERS[0] * direct - F) / F) < 2e-3  # measured 1.4e-3 at 0.05 mm, < 5e-4 beyond
+    assert core.runs == 1
+
+
+def test_morphed_mesh_matches_a_mesh_built_for_the_layers(core):
+    """Moving the interfaces of a mesh by 10% changes the force as a mesh built for them does (mesh error)."""
+    moved = TWO_LAYERS.copy()
+    moved[2] *= 1.1
+    moved[4] *= 0.92
+    sample = core.spec(moved[1:]).sample()
+    built = graded_mesh(R, core.ceiling_mm, "coarse", interfaces_mm=sample.interfaces_mm)
+    ref = core._ref
+    morphed = morph(ref[2], ref[1], sample.interfaces_mm, False)
+    h = np.array([0.2, 0.4, 0.6])
+    f_built = simulate(sample, SphericalIndenter(R), h, mesh=built, solve_at_outputs=True).force_mN
+    f_morph = simulate(sample, SphericalIndenter(R), h, mesh=morphed, solve_at_outputs=True).force_mN
+    assert np.max(np.abs(f_morph / f_built - 1)) < 3e-3
+
+
+def test_fe_core_derivatives_are_finite_differences(core):
+    """Direct differentiation (nu, compliances) and morphed-mesh differences (thicknesses) against
+    central differences of the core's force."""
+    h = np.linspace(0.05, 0.6, 8)
+    J = core.jacobian(h, TWO_LAYERS)
+    assert np.allclose(J[:, 0], core.force(h, TWO_LAYERS) / TWO_LAYERS[0], rtol=1e-12)
+    for i in (1, 4, 5):  # nu, the second thickness (morphed mesh), the second compliance
+        step = 3e-4 * TWO_LAYERS[i]
+        up, down = TWO_LAYERS.copy(), TWO_LAYERS.copy()
+        up[i] += step
+        down[i] -= step
+        fd = (core.force(h, up) - core.force(h, down)) / (2 * step)
+        scale = np.max(np.abs(fd))
+        tol = 2e-5 if i in (1, 3, 5) else 3e-3  # analytic vs one-sided differences of relative step 1e-4
+        assert np.max(np.abs(J[:, i] - fd)) < tol * scale, core.parameter_names[i]
+
+
+def test_fe_fit_in_the_loop_converges(core):
+    """Least squares with the finite-element core (two layers) on a curve of the core itself, plus a
+    contact offset: E, the second compliance and the offset are recovered from a start 10-20% off."""
+    from skin_indent.inverse import fit_least_squares
+    from skin_indent.measurement import measurement_from_arrays, prepare
+    from skin_indent.models import ComposedModel
+
+    depth = np.linspace(0.0, 0.6, 41)
+    shift = 0.02
+    force = np.zeros_like(depth)
+    touch = depth > shift
+    force[touch] = core.force(depth[touch] - shift, TWO_LAYERS)
+    data = prepare(measurement_from_arrays(depth, force, source="two layers"), segments=("approach",),
+                   contact="origin")
+    model = ComposedModel(core, ("layer", "layer", "offset"), data)
+    x0 = dict(zip(model.parameter_names, [*TWO_LAYERS, 0.0]))
+    x0.update(E_kPa=15.0, compliance2=0.36, offset_mm=0.01)
+    runs = core.runs
+    fixed = {k: x0[k] for k in ("nu", "thickness_mm", "compliance", "thickness2_mm")}
+    res = fit_least_squares(model, data.depth_mm, data.force_mN, x0, fixed=fixed, ftol=1e-8, xtol=1e-8,
+                            max_nfev=8)
+    assert res.parameters["E_kPa"] == pytest.approx(TWO_LAYERS[0], rel=2e-3)
+    assert res.parameters["compliance2"] == pytest.approx(TWO_LAYERS[5], rel=1e-2)
+    assert res.parameters["offset_mm"] == pytest.approx(shift, abs=2e-4)
+    assert core.runs - runs <= 8 + 3 * 8  # a run per evaluation, three per Jacobian (two thicknesses)
+
+
+@pytest.mark.slow
+def test_fe_fit_recovers_layer_and_stiffening():
+    """A layer with strain stiffening (no surface combines them): the fit with the finite-element model in
+    the loop, warm-started near the truth, recovers the parameters within 3 standard deviations."""
+    from skin_indent.diagnosis.fits import Fitter
+    from skin_indent.measurement import measurement_from_arrays, prepare
+    from skin_indent.protocol import Protocol
+
+    truth = {"E_kPa": 8.0, "nu": 0.47, "thickness_mm": 1.5, "ratio": 0.3, "C20_kPa": 16.0}
+    curve = Model(("layer", "stiffening")).simulate(truth, protocol=Protocol.ramp(0.6, 60, 0.02), mesh="coarse")
+    sigma = 0.01
+    force = curve.force_mN + np.random.default_rng(7).normal(0.0, sigma, curve.force_mN.size)
+    data = prepare(measurement_from_arrays(curve.depth_mm, force, curve.time_s, source="layer+stiffening"),
+                   segments=("approach",))
+    fitter = Fitter(data, sigma, noise_known=True, context=None, mesh="coarse")
+    model = fitter.model(("layer", "stiffening"))
+    assert isinstance(model.core, FECore)
+    from skin_indent.inverse import fit_least_squares
+
+    x0 = [9.0, 0.45, 1.3, 1 / 0.35, 1.6]
+    res = fit_least_squares(model, data.depth_mm, data.force_mN, x0, noise_mN=sigma, ftol=1e-4, xtol=1e-4,
+                            max_nfev=20)
+    assert res.rms_mN < 1.3 * sigma
+    params, std = model.reported(np.array([res.parameters[n] for n in model.parameter_names]),
+                                 _full_cov(model, res))
+    for k, v in truth.items():
+        if k == "nu":
+            continue  # nu trades against E at this depth: checked through E* below
+        assert abs(params[k] - v) < 3 * std[k] + 1e-9, (k, params[k], std[k])
+    e_star = params["E_kPa"] / (1 - params["nu"] ** 2)
+    assert e_star == pytest.approx(truth["E_kPa"] / (1 - 0.47**2), rel=0.1)
+    assert model.core.runs < 80
+
+
+def _full_cov(model, res):
+    n = len(model.parameter_names)
+    cov = np.full((n, n), np.nan)
+    idx = [model.parameter_names.index(k) for k in res.free_names]
+    cov[np.ix_(idx, idx)] = res.covariance
+    return cov
+
+
+@pytest.mark.slow
+def test_add_layer_twice_is_two_layers_in_diagnosis():
+    """``add=("layer", "layer")`` fits two layers (the finite-element model in the loop), not an error."""
+    from skin_indent.diagnosis import diagnose
+    from skin_indent.measurement import measurement_from_arrays
+    from skin_indent.protocol import Protocol
+
+    truth = {"E_kPa": 15.0, "nu": 0.48, "thickness_mm": 1.0, "ratio": 0.2, "thickness2_mm": 2.0, "ratio2": math.inf}
+    curve = Model(("layer", "layer")).simulate(truth, protocol=Protocol.ramp(0.6, 50, 0.02), mesh="coarse")
+    force = curve.force_mN + np.random.default_rng(3).normal(0.0, 0.03, curve.force_mN.size)
+    m = measurement_from_arrays(curve.depth_mm, force, curve.time_s, source="two layers on a rigid base")
+    d = diagnose(m, add=("layer", "layer"), candidates=(), noise_mN=0.03, max_rungs=0)
+    assert [f.model for f in d.ladder] == ["neo-hooke", "neo-hooke+layer", "neo-hooke+layer+layer"]
+    top = d.current
+    assert top.forward_runs > 0 and "thickness2_mm" in top.parameters
+    assert top.rms_mN < 1.3 * 0.03, d.report()
