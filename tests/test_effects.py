@@ -72,7 +72,8 @@ def test_unknown_or_repeated_effect():
     with pytest.raises(ValueError, match="unknown effect 'glue'"):
         effect("glue")
     with pytest.raises(ValueError, match="once"):
-        Model(("layer", "layer"))
+        Model(("offset", "offset"))
+    assert Model(("layer", "layer")).parameter_names[-2:] == ("thickness2_mm", "ratio2")  # layers repeat
 
 
 @pytest.mark.parametrize("name, on", [("friction", {"mu": 0.5}), ("adhesion", {"w_mJ_per_m2": 5.0})])

@@ -21,6 +21,8 @@ from skin_indent.models.fe_core import FECore, morph
 from skin_indent.simulate import simulate
 
 R = 6.22
+#: one worker runs these tests, in order, on one module-scoped core
+pytestmark = pytest.mark.xdist_group("fe-core")
 #: forearm-like: dermis over a soft hypodermis over muscle (moduli relative to the dermis)
 TWO_LAYERS = np.array([17.5, 0.48, 1.0, 17.5 / 2.9, 3.0, 2.9 / 9.4])
 
@@ -51,12 +53,13 @@ def core():
 def test_fe_core_is_the_forward_model(core):
     """The core's force equals a direct run of the same sample (spline between the solved depths)."""
     h = np.linspace(0.05, 0.6, 12)
+    runs = core.runs
     F = core.force(h, TWO_LAYERS)
     spec = core.spec(TWO_LAYERS[1:])
     sample = spec.sample()
     direct = simulate(sample, SphericalIndenter(R), h, mesh=core._mesh(sample), solve_at_outputs=True).force_mN
     assert np.max(np.abs(TWO_LAYERS[0] * direct - F) / F) < 2e-3  # measured 1.4e-3 at 0.05 mm, < 5e-4 beyond
-    assert core.runs == 1
+    assert core.runs - runs <= 1
 
 
 def test_morphed_mesh_matches_a_mesh_built_for_the_layers(core):
@@ -66,8 +69,9 @@ def test_morphed_mesh_matches_a_mesh_built_for_the_layers(core):
     moved[4] *= 0.92
     sample = core.spec(moved[1:]).sample()
     built = graded_mesh(R, core.ceiling_mm, "coarse", interfaces_mm=sample.interfaces_mm)
-    ref = core._ref
-    morphed = morph(ref[2], ref[1], sample.interfaces_mm, False)
+    reference = core.spec(TWO_LAYERS[1:]).sample().interfaces_mm
+    morphed = morph(graded_mesh(R, core.ceiling_mm, "coarse", interfaces_mm=reference), reference,
+                    sample.interfaces_mm, False)
     h = np.array([0.2, 0.4, 0.6])
     f_built = simulate(sample, SphericalIndenter(R), h, mesh=built, solve_at_outputs=True).force_mN
     f_morph = simulate(sample, SphericalIndenter(R), h, mesh=morphed, solve_at_outputs=True).force_mN

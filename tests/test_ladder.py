@@ -65,6 +65,21 @@ def test_ladder_climbs_stiffening_and_offset(ctx):
     assert [r["model"] for r in out["ladder"]] == [f.model for f in d.ladder] and out["missing"] == list(d.missing)
 
 
+def test_a_mimicked_set_is_never_named_wrongly_alone(ctx):
+    """Stiffening with a shifted contact point also looks like a stiff layer over a softer half-space
+    (both stiffen the deep part and move the start): the ladder names the right set, or says
+    ambiguous naming both with the measurement that separates them; never the layer alone."""
+    sigma = 0.04
+    m = _own(("stiffening",), {"E_kPa": 5.0, "nu": 0.47, "C20_kPa": 20.0}, sigma=sigma, seed=41, shift_mm=0.03,
+             protocol=Protocol.ramp(0.57, 95, 0.02))
+    d = diagnose(m, candidates=("layer", "stiffening", "offset"), in_loop=False, context=ctx)
+    right = sorted(d.missing) == ["offset", "stiffening"]
+    named_both = (d.verdict == "ambiguous" and any("stiffening" in c for c in d.confounded_with)
+                  and any("layer" in c for c in d.confounded_with) and d.suggested_measurement)
+    assert right or named_both, d.report()
+    assert d.missing != ("layer",), d.report()
+
+
 def test_clean_curve_climbs_no_rung(ctx):
     sigma = 0.03
     m = _own((), {"E_kPa": 9.0, "nu": 0.46}, sigma=sigma, seed=11)
