@@ -258,17 +258,19 @@ class Fitter:
         in_loop = hasattr(model.core, "prefetch")
         if in_loop:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
             nested = starts[0] if self.warm(key) is not None else None
-            screened = self._screen(model, starts[1:] if nested is not None else starts, FE_STARTS)
-            starts = screened
+            # the best screened start; the next ones only if a run of its fit fails to converge
+            starts = self._screen(model, starts[1:] if nested is not None else starts, FE_STARTS + 2)
             options = dict(ftol=FE_TOL, xtol=FE_TOL, gtol=1e-8, max_nfev=FE_MAX_EVALUATIONS)
         best = None
-        for x0 in starts:
+        for i, x0 in enumerate(starts):
             try:
                 res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **options)
             except ValueError:
                 continue
             if best is None or res.rms_mN < best.rms_mN:
                 best = res
+            if in_loop and best is not None and i + 1 >= FE_STARTS:
+                break
         if best is None:
             raise ValueError(f"the model {model.name} could not be fitted")
         forward_runs = getattr(model.core, "runs", 0) - runs0
@@ -277,6 +279,16 @@ class Fitter:
         cov = np.full((x.size, x.size), np.nan)
         idx = [model.parameter_names.index(n) for n in best.free_names]
         cov[np.ix_(idx, idx)] = best.covariance
+        active = [n for n in best.info.get("active_bounds", ()) if n in best.free_names]
+        if active and not np.all(np.isfinite(best.covariance)):
+            # a parameter on a face of its range (a rigid base: compliance 0) is held there: the
+            # covariance of the others is that of the fit with it fixed
+            from ..inverse.result import jacobian_covariance
+
+            keep = [model.parameter_names.index(n) for n in best.free_names if n not in active]
+            unscaled, _ = jacobian_covariance(model.jacobian(d.depth_mm, x)[:, keep])
+            cov = np.zeros((x.size, x.size))
+            cov[np.ix_(keep, keep)] = self.noise_mN**2 * unscaled
         params, std = model.reported(x, cov)
         r = best.residuals_mN
         s = self.sigma(pred)

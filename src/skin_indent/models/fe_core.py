@@ -260,16 +260,25 @@ class FECore:
         if not todo:
             return
         t0 = time.perf_counter()
+        failed = None
         if len(todo) == 1:
             (key, args), = todo.items()
-            self._curves[key] = _solve_unit(*args)
+            try:
+                self._curves[key] = _solve_unit(*args)
+            except Exception as err:  # noqa: BLE001 - a run that does not converge is a failed evaluation
+                failed = (key, err)
         else:
             for key, value, error in self._pool().imap_unordered(_solve_unit, todo.items()):
                 if error is not None:
-                    raise error
+                    failed = failed or (key, error)
+                    continue
                 self._curves[key] = value
         self.runs += len(todo)
         self.run_time_s += time.perf_counter() - t0
+        if failed is not None:  # one line for the fits: this start or step is not evaluated
+            key, err = failed
+            values = ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.parameter_names[1:], key))
+            raise ValueError(f"finite-element run failed at {values}: {str(err).splitlines()[0]}")
 
     def unit_force(self, depth_mm, rest) -> np.ndarray:
         """Force (mN) at E = 1 kPa of the core parameters after E, at depths 0 < h <= ceiling (mm)."""
