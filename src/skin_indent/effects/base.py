@@ -140,17 +140,23 @@ class ForwardSpec:
             return Viscoelastic(base, tuple(PronyTerm(g, tau) for g, tau in self.prony))
         return base
 
-    def sample(self):
-        """The material, or the layered sample, of the finite-element model."""
+    def sample(self, merge: bool = True):
+        """The material, or the layered sample, of the finite-element model.
+
+        With ``merge`` (default), adjacent materials of equal modulus are one material; without,
+        every layer keeps its interface (the mesh then does not change when a ratio passes 1).
+        """
         from ..mechanics.layers import RIGID, Layer, LayeredSample
 
         layers = []
         for t, r in self.layers:  # adjacent materials of equal modulus are one layer
-            if layers and layers[-1][1] == r:
+            if math.isinf(r):  # below a rigid base: nothing
+                break
+            if merge and layers and layers[-1][1] == r:
                 layers[-1] = (layers[-1][0] + t, r)
             else:
                 layers.append((t, r))
-        if layers and layers[-1][1] == self.below:  # the last layer is the half-space itself
+        if merge and layers and layers[-1][1] == self.below:  # the last layer is the half-space itself
             layers.pop()
         if not layers:
             return self.law(1.0)

@@ -182,10 +182,7 @@ class FECore:
         spec = ForwardSpec(1.0, float(rest[0]))
         for e, s in self._slices:
             fit = dict(zip(e.fit_names, rest[s.start - 1:s.stop - 1]))
-            values = e.from_fit(fit, 1.0)
-            # an interface that is there at ratio 1 keeps the mesh the same on both sides of 1
-            values = {k: (1.0 + 1e-12 if (k.startswith("ratio") and v == 1.0) else v) for k, v in values.items()}
-            e.configure(spec, values)
+            e.configure(spec, e.from_fit(fit, 1.0))
         return spec
 
     def _check(self, theta) -> np.ndarray:
@@ -255,7 +252,7 @@ class FECore:
             key = self._key(rest)
             have = self._curves.get(key)
             if (have is None or (sensitivities and have[2] is None)) and key not in todo:
-                sample = self.spec(rest).sample()
+                sample = self.spec(rest).sample(merge=False)
                 todo[key] = (sample, self.radius_mm, self.ceiling_mm, self._mesh(sample), RTOL, sensitivities)
         if not todo:
             return
@@ -314,7 +311,7 @@ class FECore:
         rest = theta[1:]
         self._run([rest], sensitivities=True)
         h_s, F_s, S = self._curves[self._key(rest)]
-        sample0 = self.spec(rest).sample()
+        sample0 = self.spec(rest).sample(merge=False)
         p0 = material_parameters(sample0)
         geometry0 = _geometry(sample0)
 
@@ -330,7 +327,7 @@ class FECore:
             t[i] = theta[i] + step if theta[i] + step <= hi[i] else theta[i] - step
             tiny = theta.copy()
             tiny[i] = theta[i] + 1e-3 * (t[i] - theta[i])
-            sample1 = self.spec(tiny[1:]).sample()
+            sample1 = self.spec(tiny[1:]).sample(merge=False)
             p1 = material_parameters(sample1)
             if S is not None and _geometry(sample1) == geometry0 and p1.keys() == p0.keys():
                 dd = tiny[i] - theta[i]
