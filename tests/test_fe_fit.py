@@ -60,6 +60,11 @@ def test_fe_core_is_the_forward_model(core):
     direct = simulate(sample, SphericalIndenter(R), h, mesh=core._mesh(sample), solve_at_outputs=True).force_mN
     assert np.max(np.abs(TWO_LAYERS[0] * direct - F) / F) < 2e-3  # measured 1.4e-3 at 0.05 mm, < 5e-4 beyond
     assert core.runs - runs <= 1
+    # a screening run only ranks starts: close to the fit's run, kept apart from it
+    with core.screening():
+        cheap = core.force(h, TWO_LAYERS)
+    assert np.max(np.abs(cheap / F - 1)[h >= 0.1]) < 5e-3  # measured 2.5e-3
+    assert core.runs - runs == 2 and np.array_equal(core.force(h, TWO_LAYERS), F)
 
 
 def test_morphed_mesh_matches_a_mesh_built_for_the_layers(core):
@@ -89,10 +94,19 @@ def test_fe_core_derivatives_are_finite_differences(core):
         up, down = TWO_LAYERS.copy(), TWO_LAYERS.copy()
         up[i] += step
         down[i] -= step
-        fd = (core.force(h, up) - core.force(h, down)) / (2 * step)
+        fd = (core.force(h, up, sensitivities=False) - core.force(h, down, sensitivities=False)) / (2 * step)
         scale = np.max(np.abs(fd))
         tol = 2e-5 if i in (1, 3, 5) else 3e-3  # analytic vs one-sided differences of relative step 1e-4
         assert np.max(np.abs(J[:, i] - fd)) < tol * scale, core.parameter_names[i]
+    # the columns a fit holds cost no run: a thickness held, E, nu and the compliances by direct differentiation
+    moved = TWO_LAYERS * (1 + 1e-3)
+    runs = core.runs
+    part = core.jacobian(h, moved, columns=[0, 1, 3, 5])
+    assert core.runs - runs == 1  # the run at the new point (its sensitivities included), no thickness run
+    assert np.all(part[:, [2, 4]] == 0.0)
+    full = core.jacobian(h, moved)
+    assert core.runs - runs == 3  # the two thicknesses by one-sided differences
+    assert np.allclose(part[:, [0, 1, 3, 5]], full[:, [0, 1, 3, 5]], rtol=1e-12, atol=0)
 
 
 def test_fe_fit_in_the_loop_converges(core):

@@ -373,3 +373,20 @@ def test_default_model_is_lazy():
         from skin_indent.response_surface import default_unit_curve
 
         default_unit_curve({"mesh": "default"})
+
+
+@pytest.mark.parametrize("n_nodes", [2, 3, 4, 7])
+def test_effect_surface_spline_weights_are_the_spline(n_nodes):
+    """An effect surface interpolates each axis with the weights of the interpolating spline
+    (linear in the node values): the same numbers as the spline built over all the values."""
+    from scipy.interpolate import make_interp_spline
+
+    from skin_indent.response_surface.effect_surface import _spline_weights
+
+    rng = np.random.default_rng(n_nodes)
+    nodes = np.sort(rng.uniform(-2.0, 3.0, n_nodes))
+    values = rng.normal(size=(n_nodes, 4, 9))
+    for x in (nodes[0], 0.5 * (nodes[0] + nodes[-1]), nodes[-1], rng.uniform(nodes[0], nodes[-1])):
+        direct = make_interp_spline(nodes, values, k=min(3, n_nodes - 1), axis=0)(x)
+        weighted = np.tensordot(_spline_weights(nodes, x), values, axes=(0, 0))
+        assert np.allclose(weighted, direct, rtol=0, atol=1e-12 * np.abs(values).max())

@@ -47,6 +47,7 @@ from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, Measurement, PreparedCurve, prepare
 from .evidence import suggest_measurement
 from .fits import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung
+from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, at_physical_limit, suggestion
 from .residuals import effective_sample_size
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
@@ -119,6 +120,8 @@ class Diagnosis:
     alternatives: list = field(default_factory=list)
     n_given: int = 0
     fitter: object = field(default=None, repr=False)
+    #: :meth:`undetermined` of the last rung, with its predictions: (rung, reasons, predictions)
+    _undetermined: tuple = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def current(self) -> Rung:
@@ -141,23 +144,44 @@ class Diagnosis:
     def undetermined(self) -> dict:
         """Parameters of the last rung the curve does not determine: ``{name: reason}``.
 
-        Not determined: a standard deviation over half the value (or not finite), or a
-        fit parameter on a face of its range (other than a rigid base, compliance 0).
+        Not determined: a standard deviation over :data:`~.identifiability.DETERMINED`
+        times the value (or not finite), by the fit and, where finite-element runs are
+        allowed, by the finite-element derivatives at the fitted values (they decide: a
+        surface's interpolated slopes can inflate the standard deviation of strongly
+        correlated parameters such as E and nu); the reason then says which other measurement
+        (a larger or smaller sphere to the same depth, a deeper indentation) would
+        determine it and to what standard deviation, predicted from the fitted model
+        (:func:`~.identifiability.assess`: finite-element runs, made once and cached; not
+        made when the diagnosis keeps to surfaces, ``in_loop=False``), or that none would.
+        Also a fit parameter on a face of its range, unless the face is a physical limit
+        (:func:`~.identifiability.at_physical_limit`: a rigid base, the nearly
+        incompressible end of nu).
         """
         cur = self.current
-        out = {}
+        if self._undetermined is not None and self._undetermined[0] is cur:
+            return dict(self._undetermined[1])
+        loose = {}
         for k, v in cur.parameters.items():
             sd = cur.std.get(k, math.nan)
-            if not math.isfinite(v):
-                continue
-            if not math.isfinite(sd) or sd > 0.5 * abs(v):
-                out[k] = f"{k} = {v:.3g} +- {sd:.2g}: not determined by this curve"
+            if math.isfinite(v) and (not math.isfinite(sd) or sd > DETERMINED * abs(v)):
+                loose[k] = (v, sd)
+        predictions = []
+        fe_allowed = self.fitter is not None and getattr(self.fitter, "in_loop", True)
+        if loose and fe_allowed and cur.bound_model is not None and cur.x is not None:
+            predictions = assess(self.fitter, cur, (RECORDED, *ALTERNATIVES))
+            recorded = predictions.pop(0).std
+            if recorded:  # the finite-element derivatives decide (a surface's slopes can inflate an sd)
+                loose = {k: (v, recorded.get(k, sd)) for k, (v, sd) in loose.items()
+                         if not recorded.get(k, math.inf) <= DETERMINED * abs(v)}
+        out = {k: f"{k} = {v:.3g} +- {sd:.2g}: not determined by this curve" + suggestion(k, v, predictions)
+               for k, (v, sd) in loose.items()}
         for k in cur.at_bounds:
-            if k == "nu" or (k.startswith("compliance") and cur.fit_parameters.get(k, 1.0) == 0.0):
-                continue  # skin's nearly incompressible end and a rigid base are physical ends
+            if at_physical_limit(cur.bound_model, cur.x, k):
+                continue
             out.setdefault(k, f"{k} = {cur.fit_parameters.get(k, math.nan):.4g} at the edge of its range: "
                               "refitted from other starts and still there")
-        return out
+        self._undetermined = (cur, out, predictions)
+        return dict(out)
 
     def sentence(self) -> str:
         cur, base = self.current, self.ladder[self.n_given]

@@ -57,6 +57,11 @@ class EffectParameter:
         Value used when the parameter does not matter (its effect is off).
     open_bounds : bool
         The range excludes its ends (Poisson's ratio).
+    physical_limit : {"lower", "upper"} or None
+        The end of the range that is a physical limit, which a fit may rightly reach (or
+        approach as far as its range goes): a rigid base (a layer's ``ratio`` at ``inf``),
+        a nearly incompressible material (``nu`` towards 0.5). A fit that stops at a face
+        of its range on that side has found the limit, not failed. None: neither end.
     """
 
     name: str
@@ -68,6 +73,12 @@ class EffectParameter:
     description: str
     neutral: float | None = None
     open_bounds: bool = False
+    physical_limit: str | None = None
+
+    def __post_init__(self):
+        if self.physical_limit not in (None, "lower", "upper"):
+            raise ValueError(f"{self.name}: physical_limit must be 'lower', 'upper' or None, "
+                             f"got {self.physical_limit!r}")
 
     def contains(self, value: float) -> bool:
         if math.isnan(value):
@@ -89,7 +100,8 @@ class EffectParameter:
 BASE_PARAMETERS = (
     EffectParameter("E_kPa", "kPa", 0.0, math.inf, None, True, "Young's modulus (of the top material)",
                     open_bounds=True),
-    EffectParameter("nu", "-", -1.0, 0.5, None, False, "Poisson's ratio (all materials)", open_bounds=True),
+    EffectParameter("nu", "-", -1.0, 0.5, None, False, "Poisson's ratio (all materials)", open_bounds=True,
+                    physical_limit="upper"),  # skin is nearly incompressible: nu -> 0.5
 )
 
 

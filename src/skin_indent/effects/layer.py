@@ -19,7 +19,8 @@ class Layer(Effect):
     parameters = (
         EffectParameter("thickness_mm", "mm", 0.05, 20.0, None, True, "thickness of the bonded top layer", 1.0),
         EffectParameter("ratio", "-", 0.02, math.inf, 1.0, True,
-                        "modulus of the material below over that of the layer (inf: rigid base)"),
+                        "modulus of the material below over that of the layer (inf: rigid base)",
+                        physical_limit="upper"),  # a rigid base
     )
     stage = ELASTIC
     #: two layers (dermis, hypodermis) over a half-space or a rigid base: ``("layer", "layer")``

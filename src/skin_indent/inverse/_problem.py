@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
@@ -88,6 +89,7 @@ class Problem:
         # cached: these are used once per EKF update
         object.__setattr__(self, "_template", self.params.values)
         object.__setattr__(self, "_free", self.params.free_index)
+        object.__setattr__(self, "_by_column", takes_columns(self.model))
 
     @property
     def n(self) -> int:
@@ -108,8 +110,19 @@ class Problem:
 
     def model_jacobian(self, x: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
         d = self.depth if depth is None else depth
-        J = np.asarray(self.model.jacobian(d, self.theta(x)), dtype=float)
-        return J.reshape(d.size, -1)[:, self._free]
+        if self._by_column:  # only the free columns (a finite-element model then runs for no held parameter)
+            J = self.model.jacobian(d, self.theta(x), columns=self._free)
+        else:
+            J = self.model.jacobian(d, self.theta(x))
+        return np.asarray(J, dtype=float).reshape(d.size, -1)[:, self._free]
+
+
+def takes_columns(model) -> bool:
+    """The model's ``jacobian(depth_mm, theta, columns=...)`` computes only the columns asked for."""
+    try:
+        return "columns" in inspect.signature(model.jacobian).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 def make_problem(model, depth, force, x0, fixed: Mapping[str, float] | None = None,

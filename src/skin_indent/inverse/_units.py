@@ -42,7 +42,11 @@ class _Scaled:
     def force(self, depth_mm, theta):
         return np.asarray(self.model.force(depth_mm, theta)) / self.unit
 
-    def jacobian(self, depth_mm, theta):
+    def jacobian(self, depth_mm, theta, columns=None):
+        from ._problem import takes_columns
+
+        if columns is not None and takes_columns(self.model):
+            return np.asarray(self.model.jacobian(depth_mm, theta, columns=columns)) / self.unit
         return np.asarray(self.model.jacobian(depth_mm, theta)) / self.unit
 
 

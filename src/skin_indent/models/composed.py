@@ -101,23 +101,27 @@ class ComposedModel:
         self._check_depth(depth_mm)
         return self.evaluate(theta).force_mN
 
-    def jacobian(self, depth_mm, theta) -> np.ndarray:
+    def jacobian(self, depth_mm, theta, columns=None) -> np.ndarray:
         """dF/dtheta: central differences of relative step 1e-5 (one-sided at the box faces),
         dF/dE exact where F is linear in E; where the core is the finite-element model in the
         loop, its own derivatives (:meth:`~skin_indent.models.fe_core.FECore.jacobian`)
-        carried through the later stages (which act linearly on the elastic force)."""
+        carried through the later stages (which act linearly on the elastic force).
+        Only the ``columns`` asked for (indices; default all) are computed, the others are 0."""
         theta = np.asarray(theta, dtype=float)
         lo, hi = self.bounds
-        J = np.empty((self.depth_mm.size, theta.size))
+        J = np.zeros((self.depth_mm.size, theta.size))
+        wanted = np.zeros(theta.size, dtype=bool)
+        wanted[np.arange(theta.size) if columns is None else columns] = True
         in_loop = hasattr(self.core, "prefetch")
         first = 0
         if in_loop:  # the core's own derivatives, carried through the later stages
             ev = self.evaluate(theta)
             touch = ev.h_mm > 0
-            Jc = self.core.jacobian(ev.h_mm[touch], theta[: self._n_core])
+            Jc = self.core.jacobian(ev.h_mm[touch], theta[: self._n_core],
+                                    columns=np.flatnonzero(wanted[: self._n_core]))
             scale = max(float(np.max(np.abs(ev.force_mN))), 1e-300)
             for i in range(self._n_core):
-                top = float(np.max(np.abs(Jc[:, i]))) if Jc.size else 0.0
+                top = float(np.max(np.abs(Jc[:, i]))) if Jc.size and wanted[i] else 0.0
                 if top == 0.0:
                     J[:, i] = 0.0
                     continue
@@ -126,6 +130,8 @@ class ComposedModel:
                            - self.evaluate(theta, -eps * Jc[:, i]).force_mN) / (2 * eps)
             first = self._n_core
         for i in range(first, theta.size):
+            if not wanted[i]:
+                continue
             if i == 0 and self._linear_in_E:  # F is exactly proportional to the modulus of the top material
                 J[:, 0] = self.force(depth_mm, theta) / theta[0]
                 continue

@@ -269,15 +269,12 @@ class EffectSurface:
         coordinate ``log(0.5 - nu)``: a layer confined by a stiff base stiffens like
         ``1 / (1 - 2 nu)`` towards incompressibility, a straight line there.
         """
-        from scipy.interpolate import make_interp_spline  # lazy: scipy.interpolate is slow to import
-
         h = np.asarray(depth_mm, dtype=float)
         V, positive = self._node_forces(h)
         for a, x in zip(self.axes, unit_values):
-            xs = a.node_coords
-            V = make_interp_spline(xs, V, k=min(3, xs.size - 1), axis=0)(a.coords(x))
+            V = np.tensordot(_spline_weights(a.node_coords, a.coords(x)), V, axes=(0, 0))
         xs = np.log(0.5 - self.grid.nu)
-        V = make_interp_spline(xs[::-1], V[::-1], k=min(3, xs.size - 1), axis=0)(np.log(0.5 - nu))
+        V = np.tensordot(_spline_weights(xs[::-1], np.log(0.5 - nu)), V[::-1], axes=(0, 0))
         return np.exp(V) if positive else V
 
     def force(self, depth_mm, theta) -> np.ndarray:
@@ -300,6 +297,19 @@ class EffectSurface:
             down[i] = max(theta[i] - step, lo[i])
             J[:, i] = (self.force(depth_mm, up) - self.force(depth_mm, down)) / (up[i] - down[i])
         return J
+
+
+def _spline_weights(nodes, x) -> np.ndarray:
+    """Weights w with s(x) = sum_j w_j v_j for the interpolating spline s of any values v_j at ``nodes``.
+
+    The spline (cubic, not-a-knot, with 4 or more nodes; else of degree n - 1) is linear in
+    the values, so interpolating the identity gives its weights at ``x``: one small spline
+    instead of one over every depth and every other node.
+    """
+    from scipy.interpolate import make_interp_spline  # lazy: scipy.interpolate is slow to import
+
+    nodes = np.asarray(nodes, dtype=float)
+    return make_interp_spline(nodes, np.eye(nodes.size), k=min(3, nodes.size - 1), axis=0)(float(x))
 
 
 class _NeedsRuns(Exception):

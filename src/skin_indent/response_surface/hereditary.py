@@ -116,16 +116,22 @@ def hereditary_force(time_s, depth_mm, elastic_force_mN, prony, *, weights=None)
     lag = np.asarray(time_s, dtype=float) - float(np.asarray(time_s)[0])
     initial = fe[0] * ((1.0 - g.sum()) + np.exp(-lag[:, None] / tau[None, :]) @ g)  # a first step at t_0
     force = initial + W @ dfe  # growing contact everywhere
-    # receding contact: the contact radius of t_n was last seen at t_1 < t_n
-    for n in np.flatnonzero(np.r_[False, dh < 0]):
-        A = np.cumsum((W[n, :n] * dh[:n])[::-1])[::-1]  # A[k] = int_{t_k}^{t_n} psi dh
-        if A[n - 1] >= 0:
-            continue
-        nonneg = np.flatnonzero(A >= 0)
-        if nonneg.size == 0:  # receded past first contact
-            force[n] = 0.0
-            continue
-        k = nonneg[-1]  # A[k] >= 0 > A[k + 1]: t_1 inside step k, A linear over the step
-        before = A[k] / (A[k] - A[k + 1])  # the fraction of step k before t_1
-        force[n] = initial[n] + W[n, :k] @ dfe[:k] + before * W[n, k] * dfe[k]
+    # receding contact: the contact radius of t_n was last seen at t_1 < t_n (all such n at once)
+    rec = np.flatnonzero(np.r_[False, dh < 0])
+    if rec.size:
+        rows = np.arange(rec.size)
+        Wr = W[rec]  # zero for steps j >= n
+        A = np.cumsum((Wr * dh)[:, ::-1], axis=1)[:, ::-1]  # A[i, k] = int_{t_k}^{t_n} psi dh, n = rec[i]
+        receding = A[rows, rec - 1] < 0
+        nonneg = (A >= 0) & (np.arange(A.shape[1]) < rec[:, None])
+        seen = nonneg.any(axis=1)
+        k = A.shape[1] - 1 - np.argmax(nonneg[:, ::-1], axis=1)  # A[k] >= 0 > A[k + 1]: t_1 in step k
+        k1 = np.minimum(k + 1, A.shape[1] - 1)
+        fit = receding & seen
+        with np.errstate(divide="ignore", invalid="ignore"):
+            before = np.where(fit, A[rows, k] / (A[rows, k] - A[rows, k1]), 0.0)  # fraction of step k before t_1
+        partial = np.cumsum(np.c_[np.zeros(rec.size), Wr * dfe], axis=1)  # partial[i, k] = W[n, :k] @ dfe[:k]
+        new = initial[rec] + partial[rows, k] + before * Wr[rows, k] * dfe[k]
+        force[rec[fit]] = new[fit]
+        force[rec[receding & ~seen]] = 0.0  # receded past first contact
     return np.maximum(force, 0.0) if np.all(fe >= 0) else force
