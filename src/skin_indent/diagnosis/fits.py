@@ -24,6 +24,9 @@ FE_STARTS = 1
 MAX_STARTS = 24
 #: function evaluations (finite-element runs, besides the Jacobians') of one such start
 FE_MAX_EVALUATIONS = 20
+#: a start whose misfit is within this fraction of the nested start's is the simpler model in
+#: disguise (its added effect does nothing there) and is not fitted from
+DEGENERATE = 1e-3
 #: relative tolerance of such a fit on the cost and the parameters: 1e-4 of a chi-square of ~n
 #: moves a BIC by ~0.01, far below the differences diagnosis acts on
 FE_TOL = 1e-4
@@ -224,23 +227,47 @@ class Fitter:
             out.append(np.clip(np.array(x, dtype=float), lo, hi))
         return out
 
-    def _screen(self, model, starts: list, keep: int) -> list:
+    def _screen(self, model, starts: list, keep: int, nested=None) -> list:
         """The ``keep`` best starts by their weighted misfit, from cheap runs made in parallel
-        (:meth:`~skin_indent.models.fe_core.FECore.screening`)."""
-        if len(starts) <= keep:
+        (:meth:`~skin_indent.models.fe_core.FECore.screening`).
+
+        With the ``nested`` start (the simpler model's optimum), starts that fit as the
+        simpler model does (within :data:`DEGENERATE` of its misfit: the added effect has
+        no effect there, e.g. a second layer under a rigid base, or one of the first's
+        modulus) are left out with it: the fit would not leave them. ``nested`` is
+        ``starts[0]``. Each start is ranked at its best modulus E (the force is
+        proportional to it, so the same run serves), and returned with it.
+        """
+        if nested is None and len(starts) <= keep:
             return starts
         d = self.data
         n_core = len(model.core.parameter_names)
         costs = []
+        lo, hi = model.bounds
+        w = 1.0 / self.sigma(d.force_mN) ** 2
+        starts = [np.array(x, dtype=float) for x in starts]
         with model.core.screening():  # cheaper runs that only rank the starts
             model.core.prefetch([x[:n_core] for x in starts])
-            for x in starts:
+            for i, x in enumerate(starts):
                 try:
+                    # E profiled out: the force is proportional to it (a start whose other
+                    # parameters are right is not ranked down for a modulus carried over from a
+                    # simpler model); the run is the same for any E
                     f = model.force(d.depth_mm, x)
+                    top = float(np.sum(w * f * f))
+                    if top > 0 and not (nested is not None and i == 0):
+                        x[0] = np.clip(x[0] * float(np.sum(w * f * d.force_mN)) / top, lo[0], hi[0])
+                        f = model.force(d.depth_mm, x)
                     costs.append(float(np.sum(((f - d.force_mN) / self.sigma(f)) ** 2)))
                 except ValueError:
                     costs.append(math.inf)
-        return [starts[int(i)] for i in np.argsort(costs, kind="stable")[:keep]]
+        if nested is not None:  # starts[0] is the nested start
+            simpler = costs[0]
+            costs = [math.inf if abs(c - simpler) <= DEGENERATE * simpler else c for c in costs]
+        order = [int(i) for i in np.argsort(costs, kind="stable") if math.isfinite(costs[int(i)])]
+        if not order and nested is not None:
+            return [nested]  # nothing else to start from
+        return [starts[i] for i in order[:keep]]
 
     def fit(self, effects: tuple) -> Rung:
         from ..inverse import fit_least_squares
@@ -255,13 +282,13 @@ class Fitter:
         runs0 = getattr(model.core, "runs", 0)
         in_loop = hasattr(model.core, "prefetch")
         if in_loop:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
-            # not from the nested start: there the combination is the simpler model exactly (a second
-            # layer of the first one's modulus), a stationary point the fit does not leave (measured:
-            # it stops after 3 evaluations at the simpler model's RMS)
-            if self.warm(key) is not None:
-                starts = starts[1:]
-            # the best screened start; the next ones only if a run of its fit fails to converge
-            starts = self._screen(model, starts, FE_STARTS + 2)
+            # not from the nested start nor from starts equivalent to it: there the combination is
+            # the simpler model exactly (a second layer of the first one's modulus, or under a rigid
+            # base), a stationary point the fit does not leave (measured: it stops after 3
+            # evaluations at the simpler model's RMS); the best screened start, the next ones only
+            # if a run of its fit fails to converge
+            nested = self.warm(key) is not None
+            starts = self._screen(model, starts, FE_STARTS + 2, nested=starts[0] if nested else None)
             options = dict(ftol=FE_TOL, xtol=FE_TOL, gtol=1e-8, max_nfev=FE_MAX_EVALUATIONS)
         best = None
         for i, x0 in enumerate(starts):

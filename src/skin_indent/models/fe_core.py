@@ -30,8 +30,11 @@ What keeps it cheap and smooth:
   looser tolerance (:meth:`FECore.screening`), kept apart from the fit's runs.
 
 On the forearm-like curve (100 loading points, two layers, 6 parameters, coarse mesh, 2
-cores) one fit takes 57 s and 80 runs (benchmarks/diagnose.py ``--ladder``; 166 s before
-these two measures, measured on the same quiet machine).
+cores; benchmarks/diagnose.py ``--ladder``, one quiet machine) one fit took 166 s and 98 runs
+before these two measures, 57 s and 80 runs after them (to the same optimum, RMS 0.0531 mN, a
+rigid base under the second layer), and 87 s and 50 runs once the screen ranked every start at
+its best modulus (:meth:`~skin_indent.diagnosis.fits.Fitter`): a better optimum, RMS 0.0510
+mN, with the muscle a half-space as in the truth, whose deep interface makes each run 3-5x dearer.
 """
 
 from __future__ import annotations
