@@ -176,6 +176,34 @@ class ForwardSpec:
         return LayeredSample(tuple(Layer(t, self.law(r)) for t, r in layers), below)
 
 
+def stack_parameters(effects, bounds_of, names: list, lo: list, hi: list) -> list:
+    """Append the fit parameters of ``effects`` (in order) to ``names``, their ranges to ``lo``, ``hi``.
+
+    Parameters
+    ----------
+    effects : sequence of Effect
+    bounds_of : callable
+        ``bounds_of(effect) -> {fit name: (lower, upper)}`` in the parameters' units.
+    names, lo, hi : list
+        Extended in place.
+
+    Returns
+    -------
+    list of (Effect, slice)
+        Where each effect's fit parameters sit in ``names``.
+    """
+    out = []
+    for e in effects:
+        bounds = bounds_of(e)
+        start = len(names)
+        for k in e.fit_names:
+            names.append(k)
+            lo.append(bounds[k][0])
+            hi.append(bounds[k][1])
+        out.append((e, slice(start, len(names))))
+    return out
+
+
 @dataclass
 class Evaluation:
     """A fitted force model being evaluated on one measured history (see :meth:`Effect.apply`).

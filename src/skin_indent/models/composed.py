@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from ..effects import DEPTH, ELASTIC, STAGE_ORDER, WEIGHED, Evaluation, instances
+from ..effects.base import stack_parameters
 
 
 class ComposedModel:
@@ -45,15 +46,8 @@ class ComposedModel:
         lo, hi = (list(np.asarray(b, dtype=float)) for b in core.bounds)
         self.acting = sorted((e for e in self.effects if e.stage not in (ELASTIC, WEIGHED)),
                              key=lambda e: STAGE_ORDER.index(e.stage))
-        self._slices = []
-        for e in self.acting:
-            bounds = e.fit_bounds(data, reach_mm=float(core.depth_range[1]))
-            start = len(names)
-            for k in e.fit_names:
-                names.append(k)
-                lo.append(bounds[k][0])
-                hi.append(bounds[k][1])
-            self._slices.append((e, slice(start, len(names))))
+        reach = float(core.depth_range[1])
+        self._slices = stack_parameters(self.acting, lambda e: e.fit_bounds(data, reach_mm=reach), names, lo, hi)
         self.parameter_names = tuple(names)
         self.bounds = (np.array(lo), np.array(hi))
         self._n_core = len(core.parameter_names)

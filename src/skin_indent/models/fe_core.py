@@ -47,6 +47,7 @@ import weakref
 import numpy as np
 
 from ..effects import ELASTIC, ForwardSpec, instances
+from ..effects.base import stack_parameters
 
 #: Newton tolerance of the runs in the loop: finite differences of relative step
 #: :data:`RELATIVE_STEP` need forces converged far below the step
@@ -174,15 +175,8 @@ class FECore:
         self.mesh_name = mesh
         self.workers = workers
         names, lo, hi = ["E_kPa", "nu"], [e_star_kPa / 30.0, NU_RANGE[0]], [e_star_kPa * 30.0, NU_RANGE[1]]
-        self._slices = []
-        for e in self.effects:
-            bounds = e.fe_bounds(nice_depth(float(max_depth_mm)))
-            start = len(names)
-            for k in e.fit_names:
-                names.append(k)
-                lo.append(bounds[k][0])
-                hi.append(bounds[k][1])
-            self._slices.append((e, slice(start, len(names))))
+        reach = nice_depth(float(max_depth_mm))
+        self._slices = stack_parameters(self.effects, lambda e: e.fe_bounds(reach), names, lo, hi)
         self.parameter_names = tuple(names)
         self.bounds = (np.array(lo, dtype=float), np.array(hi, dtype=float))
         self.relative_step = RELATIVE_STEP
