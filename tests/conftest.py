@@ -31,23 +31,7 @@ from skin_indent._threads import configure_threads
 configure_threads()  # before numpy loads (``_data`` imports it): inherited by xdist workers
 
 from _data import DATA, load_curve  # noqa: E402
-
-try:  # POSIX
-    import fcntl
-except ImportError:  # pragma: no cover - Windows: no cross-process coordination (each worker builds)
-    fcntl = None
-
-
-@contextlib.contextmanager
-def _exclusive(path: Path):
-    """An exclusive ``flock`` of ``path`` for the block (released by the kernel if the process dies)."""
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        if fcntl is not None:
-            fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
-    finally:
-        os.close(fd)
+from skin_indent.response_surface._store import file_lock  # noqa: E402 - the run cache's flock
 
 
 def build_once(folder: Path, name: str, build):
@@ -63,7 +47,7 @@ def build_once(folder: Path, name: str, build):
         return build()
     folder.mkdir(parents=True, exist_ok=True)
     marker = folder / f".{name}.built"
-    with _exclusive(folder / f".{name}.lock"):
+    with file_lock(folder / f".{name}.lock"):
         with contextlib.suppress(OSError):
             if marker.read_text() == run:
                 return None
