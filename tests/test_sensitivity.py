@@ -107,12 +107,13 @@ def _two_layers(e1, e2):
 
 
 def test_layer_modulus_over_half_space(contact_sets):
-    _check(contact_sets, lambda p: _two_layers(p, 15.0), 6.0, (0, "E_kPa"), 0.03, DIRECT)
+    # test points away from contact-set switches (moved with the conforming interface mesh)
+    _check(contact_sets, lambda p: _two_layers(p, 15.0), 6.5, (0, "E_kPa"), 0.03, DIRECT)
 
 
 def test_substrate_modulus(contact_sets):
     # the substrate is the stiffest material: it also scales the contact penalty
-    _check(contact_sets, lambda p: _two_layers(6.0, p), 15.0, (1, "E_kPa"), 0.05, DIRECT)
+    _check(contact_sets, lambda p: _two_layers(6.0, p), 14.0, (1, "E_kPa"), 0.05, DIRECT)
 
 
 def test_layer_on_rigid_base(contact_sets):
@@ -124,7 +125,7 @@ def test_layer_on_rigid_base(contact_sets):
 
 def test_two_layers_on_rigid_base(contact_sets):
     make = lambda p: LayeredSample((Layer(0.3, NeoHooke(p, NU)), Layer(1.2, NeoHooke(4.0, NU))), RIGID)  # noqa: E731
-    _check(contact_sets, make, 12.0, (0, "E_kPa"), 0.1, DIRECT)
+    _check(contact_sets, make, 13.0, (0, "E_kPa"), 0.1, DIRECT)
 
 
 def test_offset(contact_sets):

@@ -4,9 +4,11 @@ Skin is layered (epidermis ~0.1 mm, dermis ~1-1.5 mm on the forearm, hypodermis 
 few mm, then muscle). A :class:`LayeredSample` stacks :class:`Layer` objects, top
 first, over a ``substrate``: a material (a half-space below the last layer) or
 :data:`RIGID` (the layers are bonded to a rigid base). The finite-element model
-assigns the material at each quadrature point from its depth, so interfaces need
-not follow element edges; the mesh is refined along the interfaces under the
-contact (see :func:`skin_indent.mechanics.mesh.graded_mesh`).
+assigns the material at each quadrature point from its depth; the mesh is refined
+along the interfaces under the contact and its vertices are moved onto them there
+(:func:`skin_indent.mechanics.mesh.conform_to_interfaces`), so near the contact every
+triangle lies in one material, and far from it, where triangles are larger than the
+layers, an interface may still cut through them.
 """
 
 from __future__ import annotations
