@@ -109,6 +109,34 @@ def test_fe_core_derivatives_are_finite_differences(core):
     assert np.allclose(part[:, [0, 1, 3, 5]], full[:, [0, 1, 3, 5]], rtol=1e-12, atol=0)
 
 
+def test_secant_updates_carry_the_thickness_columns_between_fresh_differences(core):
+    """Within a fit's iterations the thickness columns are secant (Broyden) updates: no thickness run,
+    closer to the exact columns than the last ones, the other columns exact; fresh differences
+    every SECANT_REFRESH Jacobians, and exact ones outside."""
+    from skin_indent.models.fe_core import SECANT_REFRESH
+
+    h = np.linspace(0.05, 0.6, 8)
+    a = TWO_LAYERS.copy()
+    b = a * (1 + np.array([0.02, 0.01, 0.04, -0.03, 0.03, 0.04]))  # a step of a fit
+    with core.iterating():
+        Ja = core.jacobian(h, a)
+        runs = core.runs
+        Jb = core.jacobian(h, b)
+        assert core.runs - runs == 1  # the run at b (with its sensitivities), no thickness run
+        for _ in range(SECANT_REFRESH - 1):
+            core.jacobian(h, b)
+        assert core.runs - runs == 1
+        core.jacobian(h, b)  # the refresh: two thickness runs
+        assert core.runs - runs == 3
+    exact = core.jacobian(h, b)
+    assert np.allclose(Jb[:, [0, 1, 3, 5]], exact[:, [0, 1, 3, 5]], rtol=1e-12, atol=0)
+    for i in (2, 4):
+        scale = np.max(np.abs(exact[:, i]))
+        updated, stale = np.max(np.abs(Jb[:, i] - exact[:, i])), np.max(np.abs(Ja[:, i] - exact[:, i]))
+        print(f"{core.parameter_names[i]}: secant {updated / scale:.2e}, last {stale / scale:.2e} of max |dF/dt|")
+        assert updated < 0.05 * scale and updated < stale
+
+
 def test_fe_fit_in_the_loop_converges(core):
     """Least squares with the finite-element core (two layers) on a curve of the core itself, plus a
     contact offset: E, the second compliance and the offset are recovered from a start 10-20% off."""

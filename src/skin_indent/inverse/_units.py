@@ -42,6 +42,11 @@ class _Scaled:
     def force(self, depth_mm, theta):
         return np.asarray(self.model.force(depth_mm, theta)) / self.unit
 
+    def iterating(self):
+        from ..models.composed import iterating
+
+        return iterating(self.model)
+
     def jacobian(self, depth_mm, theta, columns=None):
         from ._problem import takes_columns
 

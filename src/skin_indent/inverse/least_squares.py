@@ -95,9 +95,12 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
 
     from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
 
+    from ..models.composed import iterating
+
     t0 = time.perf_counter()
-    sol = least_squares(fun, coords.internal(x_start), jac=jac, bounds=coords.bounds, method="trf",
-                        x_scale=x_scale, loss=loss, ftol=ftol, xtol=xtol, gtol=gtol, max_nfev=max_nfev)
+    with iterating(model):  # the iterations' Jacobians may be secant updates; the covariance's is exact
+        sol = least_squares(fun, coords.internal(x_start), jac=jac, bounds=coords.bounds, method="trf",
+                            x_scale=x_scale, loss=loss, ftol=ftol, xtol=xtol, gtol=gtol, max_nfev=max_nfev)
     elapsed = time.perf_counter() - t0
     x = coords.external(sol.x)[0]
     span = hi - lo

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -95,6 +96,11 @@ class ComposedModel:
         self._check_depth(depth_mm)
         return self.evaluate(theta).force_mN
 
+    def iterating(self):
+        """Context of a fit's iterations: the core's (:meth:`~skin_indent.models.fe_core.FECore.iterating`:
+        secant updates of differenced columns), or nothing for a surface."""
+        return iterating(self.core)
+
     def jacobian(self, depth_mm, theta, columns=None) -> np.ndarray:
         """dF/dtheta: central differences of relative step 1e-5 (one-sided at the box faces),
         dF/dE exact where F is linear in E; where the core is the finite-element model in the
@@ -179,3 +185,10 @@ class ComposedModel:
             var = float(g[used] @ sub @ g[used]) if np.all(np.isfinite(sub)) else math.nan
             std[n] = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
         return params, std
+
+
+def iterating(model):
+    """``model.iterating()`` where a force model has it (Jacobians within a fit's iterations may
+    be approximate, see :meth:`~skin_indent.models.fe_core.FECore.iterating`), else a null context."""
+    enter = getattr(model, "iterating", None)
+    return enter() if callable(enter) else contextlib.nullcontext()
