@@ -137,6 +137,26 @@ def test_secant_updates_carry_the_thickness_columns_between_fresh_differences(co
         assert updated < 0.05 * scale and updated < stale
 
 
+def test_a_run_that_fails_is_not_made_again(monkeypatch):
+    """A run that does not converge fails its evaluation with one line, every time it is asked
+    for, without being made again (a screen of many starts goes on without it)."""
+    import skin_indent.models.fe_core as fe_core
+
+    calls = []
+
+    def failing(*args):
+        calls.append(args)
+        raise RuntimeError("Newton did not converge at depth 0.7 mm\nmore")
+
+    monkeypatch.setattr(fe_core, "_solve_unit", failing)
+    one = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
+    theta = np.array([8.0, 0.45, 0.9, 0.0])
+    for _ in range(2):
+        with pytest.raises(ValueError, match="finite-element run failed at nu = 0.45.*did not converge at depth 0.7 mm$"):
+            one.force(np.array([0.1, 0.3]), theta)
+    assert len(calls) == 1 and one.runs == 1
+
+
 def test_fe_fit_in_the_loop_converges(core):
     """Least squares with the finite-element core (two layers) on a curve of the core itself, plus a
     contact offset: E, the second compliance and the offset are recovered from a start 10-20% off."""

@@ -247,7 +247,10 @@ class Fitter:
         w = 1.0 / self.sigma(d.force_mN) ** 2
         starts = [np.array(x, dtype=float) for x in starts]
         with model.core.screening():  # cheaper runs that only rank the starts
-            model.core.prefetch([x[:n_core] for x in starts])
+            try:
+                model.core.prefetch([x[:n_core] for x in starts])
+            except ValueError:  # a start whose run does not converge ranks last (below), the others stand
+                pass
             for i, x in enumerate(starts):
                 try:
                     # E profiled out: the force is proportional to it (a start whose other

@@ -544,8 +544,16 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
     ladder = [scored(fitter.fit(key[:i])) for i in range(len(key) + 1)]
     missing = key[len(add):]
     verdict, confounded, suggestion = first.verdict, [], None
+    if missing and len(steps) > 1:
+        # the rivals of the rung that added the last effect (e.g. layer+stiffening against
+        # layer+layer on top of one layer): other explanations the data do not exclude
+        last = next((s for s in reversed(steps[1:]) if s.ranking and s.ranking[0].effects == key), None)
+        if last is not None:
+            seen = {tuple(sorted(f.effects)) for f in alternatives} | {tuple(sorted(key))}
+            alternatives = alternatives + [scored(fitter.fit(f.effects)) for f in last.rivals
+                                           if tuple(sorted(f.effects)) not in seen]
     close = [f for f in alternatives if f.bic - ladder[-1].bic < CLOSE]
-    rival_sets = [f for f in alternatives if f.bic - ladder[-1].bic < RIVAL]
+    rival_sets = sorted((f for f in alternatives if f.bic - ladder[-1].bic < RIVAL), key=lambda f: f.bic)
     if missing:
         verdict = "ambiguous" if close else "+".join(missing)
     if rival_sets:

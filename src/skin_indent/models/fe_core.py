@@ -191,6 +191,7 @@ class FECore:
         self.bounds = (np.array(lo, dtype=float), np.array(hi, dtype=float))
         self.relative_step = RELATIVE_STEP
         self._curves: dict = {}
+        self._failed: dict = {}  # runs that did not converge: {key: error}
         self._screening = False
         self._secant, self._last = False, None
         self._ref = None
@@ -285,8 +286,12 @@ class FECore:
 
     def _run(self, rests, sensitivities: bool = False) -> None:
         todo = {}
+        failed = None
         for rest in rests:
             key = self._key(rest)
+            if key in self._failed:  # a run that did not converge is not made again
+                failed = failed or (key, self._failed[key])
+                continue
             have = self._curves.get(key)
             if (have is None or (sensitivities and have[2] is None)) and key not in todo:
                 sample = self.spec(rest).sample(merge=False)
@@ -295,19 +300,18 @@ class FECore:
                                  SCREEN_INCREMENTS)
                 else:
                     todo[key] = (sample, self.radius_mm, self.ceiling_mm, self._mesh(sample), RTOL, sensitivities)
-        if not todo:
-            return
         t0 = time.perf_counter()
-        failed = None
         if len(todo) == 1:
             (key, args), = todo.items()
             try:
                 self._curves[key] = _solve_unit(*args)
             except Exception as err:  # noqa: BLE001 - a run that does not converge is a failed evaluation
-                failed = (key, err)
-        else:
+                self._failed[key] = err
+                failed = failed or (key, err)
+        elif todo:
             for key, value, error in self._pool().imap_unordered(_solve_unit, todo.items()):
                 if error is not None:
+                    self._failed[key] = error
                     failed = failed or (key, error)
                     continue
                 self._curves[key] = value
