@@ -157,6 +157,34 @@ def test_hertz_start_and_modified_newton_leave_the_solution_unchanged():
     assert np.isclose(u0[fast.axis_top_dof], -0.01) and np.all(u0[~fast.free] == 0)
 
 
+@pytest.mark.parametrize("kw", [{}, {"interfaces_mm": (1.0,), "rigid_base_mm": 3.0}])
+def test_points_are_located_by_walking_from_nearby_triangles(kw):
+    """The similarity predictor's point location: each scaled node is found in a triangle that
+    holds it (coordinates reproduce the point), equal to testing every triangle; a point outside
+    the mesh gets clipped coordinates in a boundary triangle."""
+    from skfem import Basis, ElementTriP2
+
+    from skin_indent.mechanics.predictor import _barycentric, locate
+
+    mesh = graded_mesh(R, 0.6, "coarse", **kw).mesh
+    scalar = Basis(mesh, ElementTriP2(), intorder=1)
+    own = np.empty(scalar.N, dtype=np.int64)
+    own[scalar.element_dofs] = np.arange(mesh.t.shape[1])
+    pts = scalar.doflocs / np.sqrt(1.5)
+    elem, lam = locate(mesh, pts, own)
+    assert np.all(lam >= 0) and np.allclose(lam.sum(axis=0), 1.0)
+    back = sum(lam[i] * mesh.p[:, mesh.t[i, elem]] for i in range(3))
+    assert np.allclose(back, pts, rtol=0, atol=1e-9 * np.abs(mesh.p).max())
+    k = np.argsort(-np.hypot(*pts))[:20]  # far points: many triangles from where their walks start
+    every = np.array([_barycentric(mesh.p, mesh.t, np.arange(mesh.t.shape[1]),
+                                   np.repeat(pts[:, [j]], mesh.t.shape[1], axis=1)).min(axis=0).max() for j in k])
+    assert np.all(every >= -1e-12)  # each is inside some triangle, and the walk found one
+    outside = np.array([[mesh.p[0].max() * 2.0], [-1.0]])
+    e, l_out = locate(mesh, outside, np.array([0]))
+    assert np.all(l_out >= 0) and np.isclose(l_out.sum(), 1.0)
+    assert np.any(mesh.f2t[1, mesh.t2f[:, e[0]]] < 0)  # it ends in a boundary triangle
+
+
 def test_force_depth_curve_is_smooth():
     """Quadrature-integrated contact: no steps when quadrature points enter contact."""
     curve = simulate(NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6, 100)
