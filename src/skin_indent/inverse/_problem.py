@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -11,7 +12,7 @@ import numpy as np
 
 from .parameters import ParameterSet
 
-__all__ = ["ForceModel", "Problem", "make_problem", "check_data"]
+__all__ = ["ForceModel", "Problem", "make_problem", "check_data", "iterating"]
 
 
 @runtime_checkable
@@ -40,6 +41,17 @@ class ForceModel(Protocol):
     def force(self, depth_mm: np.ndarray, theta: np.ndarray) -> np.ndarray: ...
 
     def jacobian(self, depth_mm: np.ndarray, theta: np.ndarray) -> np.ndarray: ...
+
+
+def iterating(model):
+    """``model.iterating()`` where a force model has it, else a null context.
+
+    A model whose Jacobians within a fit's iterations may be approximate (secant updates,
+    see :meth:`~skin_indent.models.fe_core.FECore.iterating`) offers this context; the
+    fits enter it around their iterations and leave it before the covariance's Jacobian.
+    """
+    enter = getattr(model, "iterating", None)
+    return enter() if callable(enter) else contextlib.nullcontext()
 
 
 def check_data(depth, force, *, min_points: int = 3) -> tuple[np.ndarray, np.ndarray]:

@@ -43,7 +43,7 @@ class _Scaled:
         return np.asarray(self.model.force(depth_mm, theta)) / self.unit
 
     def iterating(self):
-        from ..models.composed import iterating
+        from ._problem import iterating
 
         return iterating(self.model)
 

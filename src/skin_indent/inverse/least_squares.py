@@ -95,7 +95,7 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
 
     from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
 
-    from ..models.composed import iterating
+    from ._problem import iterating
 
     t0 = time.perf_counter()
     with iterating(model):  # the iterations' Jacobians may be secant updates; the covariance's is exact

@@ -99,7 +99,8 @@ class ComposedModel:
     def iterating(self):
         """Context of a fit's iterations: the core's (:meth:`~skin_indent.models.fe_core.FECore.iterating`:
         secant updates of differenced columns), or nothing for a surface."""
-        return iterating(self.core)
+        enter = getattr(self.core, "iterating", None)
+        return enter() if callable(enter) else contextlib.nullcontext()
 
     def jacobian(self, depth_mm, theta, columns=None) -> np.ndarray:
         """dF/dtheta: central differences of relative step 1e-5 (one-sided at the box faces),
@@ -186,9 +187,3 @@ class ComposedModel:
             std[n] = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
         return params, std
 
-
-def iterating(model):
-    """``model.iterating()`` where a force model has it (Jacobians within a fit's iterations may
-    be approximate, see :meth:`~skin_indent.models.fe_core.FECore.iterating`), else a null context."""
-    enter = getattr(model, "iterating", None)
-    return enter() if callable(enter) else contextlib.nullcontext()
