@@ -184,6 +184,53 @@ def test_fe_fit_in_the_loop_converges(core):
     assert core.runs - runs <= 8 + 3 * 8  # a run per evaluation, three per Jacobian (two thicknesses)
 
 
+def test_a_second_layer_starts_above_and_below_the_fitted_one():
+    """Starts of a fit of two layers after one: the new layer inserted above the fitted one keeps
+    its interface (the measured case: the fit reaches the noise only from such a start), one start
+    per body, none the one-layer body (a layer under a rigid base changes nothing)."""
+    from types import SimpleNamespace
+
+    from skin_indent.diagnosis.fits import Fitter
+    from skin_indent.effects import effect
+    from skin_indent.measurement import measurement_from_arrays, prepare
+
+    layer = effect("layer")
+    fitted = [{"thickness_mm": 3.6, "compliance": 0.0}]
+    new = {"thickness_mm": 1.2, "compliance": 4.0}
+    assert layer.insert(fitted, 0, new) == [new, {"thickness_mm": pytest.approx(2.4), "compliance": 0.0}]
+    assert layer.insert(fitted, 1, new) == [fitted[0], new]
+    assert layer.insert(fitted, 0, {"thickness_mm": 3.58, "compliance": 4.0}) is None  # nothing left below
+
+    h = np.linspace(0.006, 0.6, 60)
+    data = prepare(measurement_from_arrays(h, 20.0 * h**1.5, h / 0.02, source="synthetic"), segments=("approach",))
+    fitter = Fitter(data, 0.03, noise_known=True, context=None, mesh="coarse")
+    fitter.fits[("layer",)] = SimpleNamespace(effects=("layer",), fit_parameters={
+        "E_kPa": 7.0, "nu": 0.49, "thickness_mm": 3.6, "compliance": 0.0})
+    model = fitter.model(("layer", "layer"))
+    starts = fitter.starts(model, ("layer", "layer"))
+    names = model.parameter_names
+    t1, c1, t2, c2 = (names.index(k) for k in ("thickness_mm", "compliance", "thickness2_mm", "compliance2"))
+    assert np.allclose(starts[0][[t1, c1]], [3.6, 0.0])  # the nested start first
+    above = [x for x in starts if x[c2] == 0.0 and x[c1] > 0 and np.isclose(x[t1] + x[t2], 3.6)]
+    assert {round(float(x[t1]), 3) for x in above} >= {1.2, 2.4}  # 2 and 4 times the deepest depth
+    n_core = len(model.core.parameter_names)
+    bodies = [model.core.body(x[1:n_core]) for x in starts]
+    assert len(set(bodies)) == len(bodies) <= 24
+
+
+def test_starts_are_ranked_by_what_they_add_to_the_simpler_model():
+    """The screen's ranking: the misfit left by a b F_start + a F_nested (a, b >= 0)."""
+    from skin_indent.diagnosis.fits import _blended
+
+    h = np.linspace(0.01, 0.6, 50)
+    w = np.ones_like(h)
+    nested, shape = h**1.5, h**2
+    y = 0.7 * nested + 0.4 * shape
+    assert _blended(nested, shape, y, w) == pytest.approx(0.0, abs=1e-20)
+    assert _blended(nested, nested * 1.3, y, w) == pytest.approx(_blended(nested, -nested, y, w))  # nothing added
+    assert _blended(nested, -shape, y, w) > _blended(nested, shape, y, w)  # only a >= 0, b >= 0
+
+
 @pytest.mark.slow
 def test_fe_fit_recovers_layer_and_stiffening():
     """A layer with strain stiffening (no surface combines them): the fit with the finite-element model in

@@ -360,6 +360,17 @@ def explained(rung: Rung, fitter: Fitter) -> bool:
     return bool(structureless and rung.rms_mN <= allowed)
 
 
+def settled(rung: Rung, fitter: Fitter) -> bool:
+    """The climb stops at this rung: it explains the curve to the noise (:func:`explained`) and
+    no fitted parameter stops at the edge of its range short of a physical limit (e.g. a layer
+    as thin as the model solves: a model that explains the curve only from there may stand in
+    for another, so the candidates on top of it are examined too, and climbed only when one
+    lowers the BIC by :data:`STRONG`)."""
+    if not explained(rung, fitter):
+        return False
+    return all(at_physical_limit(rung.bound_model, rung.x, k) for k in rung.at_bounds)
+
+
 def _examine(fitter: Fitter, key: tuple, candidates, n_eff: float) -> Step:
     """Fit every candidate on top of the rung ``key`` and rank them by BIC."""
     data, sigma = fitter.data, fitter.noise_mN
@@ -411,8 +422,8 @@ def _effective_size(fitter: Fitter, rungs) -> float:
 
 
 def _climb(fitter: Fitter, key: tuple, candidates, n_eff: float, rungs_left: int, steps: list) -> tuple:
-    """Greedy climb from ``key``: add the named effect while the rung is not explained."""
-    while rungs_left > 0 and not explained(fitter.fit(key), fitter):
+    """Greedy climb from ``key``: add the named effect while the rung is not :func:`settled`."""
+    while rungs_left > 0 and not settled(fitter.fit(key), fitter):
         step = _examine(fitter, key, candidates, n_eff)
         steps.append(step)
         if step.verdict in ("none", "ambiguous"):

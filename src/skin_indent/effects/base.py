@@ -306,6 +306,14 @@ class Effect:
         """
         return {p.name: (p.lower, p.upper) for p in self.parameters}
 
+    def insert(self, fitted: list, position: int, new: dict) -> list | None:
+        """Fit values of every occurrence of a repeatable effect, top first, when one more
+        (``new``, fit names without numbers) is added at ``position`` (0: first) among the
+        occurrences ``fitted`` before: the start of a fit of one more occurrence (a second
+        layer above, between or below the fitted ones). None: no such start.
+        """
+        return [*fitted[:position], dict(new), *fitted[position:]]
+
     def starts(self, data, bounds: dict) -> dict:
         """``{fit name: tuple of start values}``; a fit starts from every combination."""
         out = {}

@@ -54,5 +54,21 @@ class Layer(Effect):
                 EffectAxis("compliance", (0.0, 0.12, 0.3, 0.65, 1.4, 3.2, 8.0), "log", 0.1))
 
     def starts(self, data, bounds):
+        """Thicknesses 2, 4 and 8 times the deepest depth (else the middle of the range, log),
+        a rigid base, a stiffer and a softer material below."""
         lo, hi = bounds["thickness_mm"]
-        return {"thickness_mm": (math.sqrt(lo * hi),), "compliance": (0.0, 0.5, 4.0)}
+        h = float(getattr(data, "max_indentation_mm", math.nan))
+        t = [k * h for k in (2.0, 4.0, 8.0)] if math.isfinite(h) and h > 0 else [math.sqrt(lo * hi)]
+        t = sorted({float(min(max(v, lo), hi)) for v in t})
+        return {"thickness_mm": tuple(t), "compliance": (0.0, 0.5, 4.0)}
+
+    def insert(self, fitted, position, new):
+        """A layer inserted above a fitted one takes its thickness from it: the interfaces
+        fitted before stay where they were (None if it would leave that layer < 0.05 mm)."""
+        out = [dict(v) for v in fitted]
+        if position < len(out):
+            rest = out[position]["thickness_mm"] - new["thickness_mm"]
+            if rest < self.parameters[0].lower:
+                return None
+            out[position]["thickness_mm"] = rest
+        return [*out[:position], dict(new), *out[position:]]

@@ -213,6 +213,12 @@ class FECore:
             e.configure(spec, e.from_fit(fit, 1.0))
         return spec
 
+    def body(self, rest) -> str:
+        """The body of the core parameters after E (``nu``, effect fit values) up to its modulus:
+        two parameter vectors with the same body give forces in the ratio of their E (a second
+        layer under a rigid base, or of the first one's modulus, is the one-layer body)."""
+        return repr(self.spec(rest).sample())
+
     def _check(self, theta) -> np.ndarray:
         theta = np.asarray(theta, dtype=float)
         if theta.shape != (len(self.parameter_names),):
