@@ -563,6 +563,15 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
             seen = {tuple(sorted(f.effects)) for f in alternatives} | {tuple(sorted(key))}
             alternatives = alternatives + [scored(fitter.fit(f.effects)) for f in last.rivals
                                            if tuple(sorted(f.effects)) not in seen]
+    if missing and explained(ladder[-1], fitter) and not settled(ladder[-1], fitter):
+        # the last rung explains the curve only from the edge of a range (a layer as thin as the
+        # model solves): a candidate on top of it that explains the curve as well from inside its
+        # ranges is another explanation, though it holds the same effects and one more
+        top = next((s for s in reversed(steps) if s.rung.effects == key), None)
+        if top is not None:
+            seen = {tuple(sorted(f.effects)) for f in alternatives}
+            alternatives = alternatives + [scored(f) for f in top.ranking if settled(f, fitter)
+                                           and tuple(sorted(f.effects)) not in seen]
     close = [f for f in alternatives if f.bic - ladder[-1].bic < CLOSE]
     rival_sets = sorted((f for f in alternatives if f.bic - ladder[-1].bic < RIVAL), key=lambda f: f.bic)
     if missing:
