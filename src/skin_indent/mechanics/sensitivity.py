@@ -11,7 +11,14 @@ penalty contact) the converged state :math:`u(h; p)` at depth :math:`h` satisfie
                     + \frac{\partial F}{\partial p}\Big|_u ,
 
 with :math:`K = \partial R/\partial u` the consistent tangent at the converged
-state (assembled anew there and factorised once per depth, for all parameters).
+state (assembled anew there). Only the force is wanted, so one adjoint solve per depth
+serves every parameter: with :math:`K \lambda = (\partial F/\partial u)^T` (K is
+symmetric for frictionless contact), :math:`dF/dp = -\lambda \cdot \partial R/\partial p
++ \partial F/\partial p`. The solve reuses the factorisation of the Newton iterations
+(conjugate gradients preconditioned with it, :class:`~.linear.TangentSolver`; a new
+factorisation only when that does not converge), so a depth costs an assembly and a few
+triangular solves, not a factorisation (on two layers over a half-space: 1.47 -> ~1.2 s
+per 20-depth run, measured).
 
 * :math:`\partial f_\mathrm{int}/\partial p = \int \partial P/\partial p : \delta F\, dV`
   over the region of the material that owns ``p``; the stress derivative comes from
@@ -36,7 +43,6 @@ Used by :func:`skin_indent.simulate.simulate` (``sensitivities=True``) through t
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse.linalg import splu
 
 from .axisymmetric import F_COMPONENTS
 from .layers import LayeredSample
@@ -77,13 +83,9 @@ def check_differentiable(sample, contact=None) -> None:
         raise ValueError("sensitivities need frictionless, non-adhesive contact")
 
 
-def _factorise(K):
-    """Sparse LU of a symmetric tangent (as :class:`~.linear.TangentSolver`), pivoting if needed."""
-    lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-    probe = lu.solve(np.ones(K.shape[0]))
-    if not np.all(np.isfinite(probe)):  # a zero pivot without pivoting: partial pivoting
-        lu = splu(K.tocsc(), permc_spec="COLAMD")
-    return lu
+#: relative residual of the adjoint solves (conjugate gradients; the derivatives are checked
+#: against finite differences to 1e-6)
+ADJOINT_RTOL = 1e-12
 
 
 class DirectSensitivity:
@@ -101,7 +103,8 @@ class DirectSensitivity:
     n_depths : int
         Number of requested depths of the solve.
     refine : int
-        Steps of iterative refinement of the linear solves (default 1).
+        Steps of iterative refinement of the adjoint solve (default 0: the conjugate
+        gradients already reach :data:`ADJOINT_RTOL`).
 
     Attributes
     ----------
@@ -111,7 +114,7 @@ class DirectSensitivity:
         ``(k, name) -> ndarray`` of dF/dp at the requested depths, mN per unit of p.
     """
 
-    def __init__(self, problem, sample, n_depths: int, refine: int = 1):
+    def __init__(self, problem, sample, n_depths: int, refine: int = 0):
         check_differentiable(sample, problem.contact.law)
         self.problem = problem
         self.refine = refine
@@ -172,17 +175,19 @@ class DirectSensitivity:
         K = pb.pattern.assemble([(pb.solid.element_dofs, Ke), (pb.contact.element_dofs, Kc)])
         dR += f_c[:, None] * self._penalty_rate[None, :]
         b = -dR[free]
-        lu = _factorise(K)
-        self.factorisations += 1
-        x = lu.solve(b)
-        for _ in range(self.refine):
-            x += lu.solve(b - K @ x)
         # dF/du = e_z^T K_c (F is the sum of the vertical contact forces)
         c = pb.contact
         ez = (c.comp == 1).astype(float)
         g_e = np.einsum("k,ekl->el", ez, Kc)
-        g = np.bincount(c.element_dofs.T.ravel(), weights=g_e.ravel(), minlength=u.size)
-        return g[free] @ x + force * self._penalty_rate
+        g = np.bincount(c.element_dofs.T.ravel(), weights=g_e.ravel(), minlength=u.size)[free]
+        # the adjoint K lam = g (K symmetric), preconditioned by the Newton iterations' factorisation
+        solver = pb.linear_solver
+        before = solver.factorisations
+        lam = solver.solve(K, g, rtol=ADJOINT_RTOL)
+        for _ in range(self.refine):
+            lam += solver.solve(K, g - K @ lam, rtol=ADJOINT_RTOL)
+        self.factorisations += solver.factorisations - before
+        return lam @ b + force * self._penalty_rate
 
     def __call__(self, i: int, u: np.ndarray, depth: float) -> None:
         """The ``on_converged`` hook: store dF/dp at the ``i``-th requested depth."""
