@@ -157,6 +157,92 @@ def test_a_run_that_fails_is_not_made_again(monkeypatch):
     assert len(calls) == 1 and one.runs == 1
 
 
+def test_a_run_in_workers_is_the_run_made_here():
+    """Within ``in_workers`` a single run goes to a worker process (several fits in threads then
+    share the cores) and gives the curve this process gives."""
+    here = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
+    there = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
+    theta = np.array([8.0, 0.45, 1.0, 0.5])
+    h = np.linspace(0.05, 0.6, 7)
+    with there.in_workers():
+        F = there.force(h, theta)
+        J = there.jacobian(h, theta, columns=[0, 1, 3])
+    assert there._executor is not None and here._executor is None
+    assert there.runs == 1 and not there._in_workers
+    assert np.allclose(F, here.force(h, theta), rtol=1e-12, atol=0)
+    assert np.allclose(J, here.jacobian(h, theta, columns=[0, 1, 3]), rtol=1e-9, atol=1e-12)
+    here.close(), there.close()
+
+
+def test_fits_in_the_loop_run_side_by_side():
+    """``Fitter.fit_all``: the fits of different finite-element cores run at once (threads), in
+    their cores' ``in_workers`` blocks; fits on surfaces and errors keep their keys and order."""
+    import contextlib
+    import threading
+    import time
+    from types import SimpleNamespace
+
+    from skin_indent.diagnosis.fits import Fitter
+
+    class Core:
+        def __init__(self):
+            self.inside = False
+
+        def prefetch(self, thetas):
+            pass
+
+        @contextlib.contextmanager
+        def in_workers(self):
+            self.inside = True
+            yield self
+            self.inside = False
+
+        def cancel(self):
+            self.cancelled = True
+
+    cores = {("layer", "layer"): Core(), ("layer", "stiffening"): Core()}
+    barrier = threading.Barrier(2, timeout=10)  # both in-loop fits must be running at the same time
+
+    class Stub(Fitter):
+        def __init__(self):
+            self.fits = {}
+
+        def model(self, key):
+            if key == ("layer", "friction"):
+                raise ValueError("friction needs a ramp")
+            return SimpleNamespace(core=cores.get(key, object()))
+
+        def fit(self, key):
+            core = self.model(key).core
+            if isinstance(core, Core):
+                assert core.inside
+                barrier.wait()
+                time.sleep(0.01)
+            return SimpleNamespace(effects=key)
+
+    keys = [("layer", "layer"), ("layer", "offset"), ("layer", "friction"), ("layer", "stiffening")]
+    out = Stub().fit_all(keys)
+    assert list(out) == keys
+    assert [v.effects for k, v in out.items() if k != ("layer", "friction")] == [k for k in keys if k[1] != "friction"]
+    assert isinstance(out[("layer", "friction")], ValueError)
+    assert not any(c.inside for c in cores.values())
+
+    # an interrupt in one fit stops the others at their next run (the cores are cancelled)
+    class Interrupted(Stub):
+        def fit(self, key):
+            if key == ("layer", "layer"):
+                raise KeyboardInterrupt
+            return SimpleNamespace(effects=key)
+
+    with pytest.raises(KeyboardInterrupt):
+        Interrupted().fit_all(keys)
+    assert all(getattr(c, "cancelled", False) for c in cores.values())
+    real = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
+    real.cancel()
+    with pytest.raises(RuntimeError, match="cancelled"):
+        real.force(np.array([0.1, 0.3]), np.array([8.0, 0.45, 0.9, 0.5]))
+
+
 def test_fe_fit_in_the_loop_converges(core):
     """Least squares with the finite-element core (two layers) on a curve of the core itself, plus a
     contact offset: E, the second compliance and the offset are recovered from a start 10-20% off."""

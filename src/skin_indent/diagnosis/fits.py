@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
 import math
@@ -195,7 +196,7 @@ class Fitter:
         """The fitted rung of the largest set of effects contained in ``effects`` (None: none fitted)."""
         want = sorted(effects)
         best = None
-        for key, rung in self.fits.items():
+        for key, rung in list(self.fits.items()):  # a copy: fits in other threads add to it
             if len(key) >= len(effects):
                 continue
             rest = list(want)
@@ -364,6 +365,63 @@ class Fitter:
         if not order and nested is not None:
             return [nested]  # nothing else to start from
         return [starts[i] for i in order[:keep]]
+
+    def fit_all(self, keys) -> dict:
+        """Fit several sets of effects: ``{key: Rung or ValueError}`` (the error of a set that
+        cannot be fitted), in the order of ``keys``.
+
+        Sets fitted with the finite-element model in the loop (two layers, layer and
+        stiffening) are fitted at once, one thread per elastic core whose runs go to worker
+        processes (:meth:`~skin_indent.models.fe_core.FECore.in_workers`): a fit's evaluations
+        are serial, so two fits side by side keep both cores busy. Each fit is the one
+        :meth:`fit` makes alone (its own core, its own warm start from the rungs already fitted).
+        """
+        from concurrent.futures import ThreadPoolExecutor
+
+        def attempt(group):
+            out = {}
+            for key in group:
+                try:
+                    out[key] = self.fit(key)
+                except ValueError as err:
+                    out[key] = err
+            return out
+
+        keys = [tuple(k) for k in keys]
+        groups: dict[int, list] = {}  # new in-loop fits by core: a core serves one thread
+        done = {}
+        for key in keys:
+            if key in self.fits:
+                done[key] = self.fits[key]
+                continue
+            try:
+                core = self.model(key).core  # the cores are made here, in this thread
+            except ValueError as err:
+                done[key] = err
+                continue
+            if hasattr(core, "in_workers"):
+                groups.setdefault(id(core), []).append(key)
+            else:
+                done.update(attempt([key]))
+        if len(groups) > 1:
+            cores = [self.model(group[0]).core for group in groups.values()]
+            with contextlib.ExitStack() as stack:
+                for core in cores:
+                    stack.enter_context(core.in_workers())
+                pool = ThreadPoolExecutor(max_workers=len(groups))
+                try:
+                    for out in pool.map(attempt, groups.values()):
+                        done.update(out)
+                except BaseException:  # an interrupt: the other threads stop at their next run
+                    for core in cores:
+                        core.cancel()
+                    raise
+                finally:
+                    pool.shutdown(wait=True)
+        else:
+            for group in groups.values():
+                done.update(attempt(group))
+        return {key: done[key] for key in keys}
 
     def fit(self, effects: tuple) -> Rung:
         from ..inverse import fit_least_squares

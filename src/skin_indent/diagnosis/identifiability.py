@@ -28,6 +28,7 @@ at the edge of what the fit could reach.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 from dataclasses import dataclass
@@ -249,7 +250,7 @@ def reported_std(model, x, J, sigma, free) -> dict:
 
 
 def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: float = 1.0,
-                  error_model: bool = True) -> tuple[dict, int]:
+                  error_model: bool = True, in_workers: bool = False) -> tuple[dict, int]:
     """Standard deviation every reported parameter of ``rung`` would have under another measurement.
 
     The fitted model at its fitted parameters, with the finite-element model as its
@@ -278,6 +279,8 @@ def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: flo
         ``True`` (default): sigma_i of ``fitter.sigma`` (noise and model error in
         quadrature); ``False``: the noise ``fitter.noise_mN`` alone, as the rung's own
         covariance (``noise^2 (J^T J)^-1``).
+    in_workers : bool
+        Make the runs in worker processes (:func:`assess` computes several at once).
 
     Returns
     -------
@@ -292,7 +295,7 @@ def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: flo
         A finite-element run failed, or the indentation leaves the model's range.
     """
     model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    J, force, runs = alternative_jacobian(fitter, rung, radius_factor, depth_factor)
+    J, force, runs = alternative_jacobian(fitter, rung, radius_factor, depth_factor, in_workers=in_workers)
     sigma = fitter.sigma(force) if error_model else np.full(force.shape, float(fitter.noise_mN))
     held = _held(rung)
     names = model.parameter_names
@@ -300,7 +303,8 @@ def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: flo
     return reported_std(model, x, J, sigma, free), runs
 
 
-def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor: float = 1.0) -> tuple:
+def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor: float = 1.0, *,
+                         in_workers: bool = False) -> tuple:
     """Jacobian of the rung's model at its fitted vector for another measurement, by finite elements.
 
     With ``radius_factor = depth_factor = 1`` it is the finite-element Jacobian of the
@@ -315,6 +319,9 @@ def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor:
         A fitted model (``bound_model``, ``x``, ``prediction_mN``).
     radius_factor, depth_factor : float
         Sphere radius and indentation (point by point) over the recorded ones.
+    in_workers : bool
+        Make the runs in worker processes, this thread only waiting for them
+        (:meth:`~skin_indent.models.fe_core.FECore.in_workers`).
 
     Returns
     -------
@@ -340,7 +347,8 @@ def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor:
     try:
         n_core = len(core.parameter_names)
         touch = depth_factor * h > 0
-        core.jacobian(depth_factor * h[touch], x[:n_core])  # the runs, sensitivities included, made once
+        with core.in_workers() if in_workers else contextlib.nullcontext():
+            core.jacobian(depth_factor * h[touch], x[:n_core])  # the runs, sensitivities included, made once
         J = new.jacobian(new.depth_mm, x)
         force = new.force(new.depth_mm, x)
     finally:
@@ -371,23 +379,32 @@ def assess(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
     list of Prediction
         One per alternative, in order.
     """
-    out = []
     model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
     try:
         h_max = float(np.max(_indentation(model, x)))
     except Exception as err:  # noqa: BLE001 - nothing to assess: no alternative is suggested
         return [Prediction(a, a.short, None, f"{type(err).__name__}: {err}") for a in alternatives]
     radius = float(model.data.radius_mm)
-    for a in alternatives:
+    workers = getattr(getattr(fitter, "context", None), "workers", None) or 1
+    concurrent = workers > 1 and len(alternatives) > 1
+
+    def predict(a):
         label = a.describe(radius, h_max)
         try:
-            std, runs = predicted_std(fitter, rung, radius_factor=a.radius_factor, depth_factor=a.depth_factor)
+            std, runs = predicted_std(fitter, rung, radius_factor=a.radius_factor, depth_factor=a.depth_factor,
+                                      in_workers=concurrent)
         except Exception as err:  # noqa: BLE001 - a failed alternative is not suggested
             first = str(err).splitlines()[0] if str(err) else ""
-            out.append(Prediction(a, label, None, f"{type(err).__name__}: {first}"))
-            continue
-        out.append(Prediction(a, label, std, None, runs))
-    return out
+            return Prediction(a, label, None, f"{type(err).__name__}: {first}")
+        return Prediction(a, label, std, None, runs)
+
+    if not concurrent:
+        return [predict(a) for a in alternatives]
+    from concurrent.futures import ThreadPoolExecutor
+
+    # the alternatives side by side, as many as there are workers: each thread waits for its runs
+    with ThreadPoolExecutor(max_workers=min(workers, len(alternatives))) as pool:
+        return list(pool.map(predict, alternatives))
 
 
 def suggestion(name: str, value: float, predictions) -> str:

@@ -376,7 +376,7 @@ def _examine(fitter: Fitter, key: tuple, candidates, n_eff: float) -> Step:
     data, sigma = fitter.data, fitter.noise_mN
     current = fitter.fit(key)
     not_detectable: dict[str, str] = {}
-    tried, weighed = [], []
+    tried, weighed, wanted = [], [], []
     for name in candidates:
         e = effect(name)
         if name in key and not e.repeatable:
@@ -388,10 +388,14 @@ def _examine(fitter: Fitter, key: tuple, candidates, n_eff: float) -> Step:
         if e.stage == WEIGHED:
             weighed.append(e)  # at the nu of the best-fitting model, below
             continue
-        try:
-            tried.append(fitter.fit(key + (name,)))
-        except ValueError as err:
-            not_detectable[name] = f"not fitted: {err}"
+        wanted.append(name)
+    fitted = fitter.fit_all([key + (name,) for name in wanted])  # the finite-element fits side by side
+    for name in wanted:
+        f = fitted[key + (name,)]
+        if isinstance(f, ValueError):
+            not_detectable[name] = f"not fitted: {f}"
+        else:
+            tried.append(f)
     best = min([current, *tried], key=lambda f: f.chi2_weighted)
     for e in weighed:
         not_detectable[e.name] = e.weigh(fitter, best)
@@ -520,13 +524,12 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
 
     # the first examination: the candidates on top of the given model (its n_eff from the best fit there)
     fits = [fitter.fit(add)]
+    keys = []
     for name in candidates:
-        try:
-            e = effect(name)
-            if e.stage != WEIGHED and e.visible(data, sigma) is None and (name not in add or e.repeatable):
-                fits.append(fitter.fit(add + (name,)))
-        except ValueError:
-            pass
+        e = effect(name)
+        if e.stage != WEIGHED and e.visible(data, sigma) is None and (name not in add or e.repeatable):
+            keys.append(add + (name,))
+    fits += [f for f in fitter.fit_all(keys).values() if not isinstance(f, ValueError)]
     n_eff = _effective_size(fitter, fits)
     first = _examine(fitter, add, candidates, n_eff)
     steps = [first]

@@ -26,6 +26,10 @@ What keeps it cheap and smooth:
   evaluates, so each run of :meth:`FECore.force` also solves for the direct-differentiation
   sensitivities (+20-40% of a run, instead of a second run); a held parameter costs no run
   (``jacobian(..., columns=)``).
+- **Fits side by side.** The fits of several combinations on top of one rung (two layers,
+  layer and stiffening) run at once, each in a thread whose runs go to worker processes
+  (:meth:`FECore.in_workers`): a fit's evaluations are serial, so one fit alone leaves a
+  core idle between its Jacobians.
 - **Cheap screening.** Start vectors are ranked by runs with fewer solved depths and a
   looser tolerance (:meth:`FECore.screening`), kept apart from the fit's runs.
 - **Secant updates of the differenced columns.** Within a fit's iterations
@@ -193,6 +197,8 @@ class FECore:
         self._curves: dict = {}
         self._failed: dict = {}  # runs that did not converge: {key: error}
         self._screening = False
+        self._in_workers = False
+        self._cancelled = False
         self._secant, self._last = False, None
         self._ref = None
         self._executor = None
@@ -277,6 +283,22 @@ class FECore:
         finally:
             self._screening = False
 
+    @contextlib.contextmanager
+    def in_workers(self):
+        """Within the block every run goes to the worker processes, a single one too, and this
+        process only waits for it: fits of several cores, each in a thread of this process
+        (:meth:`~skin_indent.diagnosis.fits.Fitter.fit_all`), then share the cores."""
+        self._in_workers = True
+        try:
+            yield self
+        finally:
+            self._in_workers = False
+
+    def cancel(self) -> None:
+        """Refuse every further run (``RuntimeError``): a fit in another thread stops at its next
+        run when the diagnosis is interrupted."""
+        self._cancelled = True
+
     def _pool(self):
         if self._executor is None:
             from ..response_surface._executors import available_cpus, make_executor
@@ -291,6 +313,8 @@ class FECore:
         self._run([self._check(theta)[1:] for theta in thetas])
 
     def _run(self, rests, sensitivities: bool = False) -> None:
+        if self._cancelled:
+            raise RuntimeError("the finite-element fit was cancelled")
         todo = {}
         failed = None
         for rest in rests:
@@ -307,7 +331,7 @@ class FECore:
                 else:
                     todo[key] = (sample, self.radius_mm, self.ceiling_mm, self._mesh(sample), RTOL, sensitivities)
         t0 = time.perf_counter()
-        if len(todo) == 1:
+        if len(todo) == 1 and not self._in_workers:
             (key, args), = todo.items()
             try:
                 self._curves[key] = _solve_unit(*args)
