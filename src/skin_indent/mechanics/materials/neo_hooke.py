@@ -106,8 +106,12 @@ class NeoHooke(Material):
     def tangent_components(self, H, pairs):
         # Same tangent as stress_and_tangent, evaluated only on the non-zero components
         # of F (25 of 81 in axisymmetry): this is the hot path of every Newton iteration.
+        return self._tangent_components(H, pairs, kinematics(H))
+
+    def _tangent_components(self, H, pairs, kin):
+        """:meth:`tangent_components` from the kinematics ``(F, F^-1, ln J, J)`` of ``H``."""
         mu, lam = self.lame
-        F, Finv, lnJ, J = kinematics(H)
+        F, Finv, lnJ, J = kin
         rows = np.array([i for i, _ in pairs])
         cols = np.array([j for _, j in pairs])
         FinvT = np.swapaxes(Finv, 0, 1)
@@ -143,3 +147,4 @@ class PointwiseNeoHooke:
     stress = NeoHooke.stress
     _stress = NeoHooke._stress
     tangent_components = NeoHooke.tangent_components
+    _tangent_components = NeoHooke._tangent_components

@@ -115,11 +115,13 @@ class NeoHookeStiffening(Material):
         return x, (3.0 + x) * jm1 + x, 1.0 + jm1
 
     @classmethod
-    def _invariants(cls, H, Finv, lnJ):
-        """``(x, b, j, D, FinvT)`` with D = dI1b/dF (3, 3, ...)."""
+    def _invariants(cls, H, Finv, lnJ, F_minus_FinvT=None):
+        """``(x, b, j, D, FinvT)`` with D = dI1b/dF (3, 3, ...); ``F_minus_FinvT`` = F - F^-T
+        if already computed."""
         x, b, j = cls._scalars(H, lnJ)
         FinvT = np.swapaxes(Finv, 0, 1)
-        F_minus_FinvT = H + np.einsum("iK...,JK...->iJ...", FinvT, H)
+        if F_minus_FinvT is None:
+            F_minus_FinvT = H + np.einsum("iK...,JK...->iJ...", FinvT, H)
         D = j * (2.0 * F_minus_FinvT - (2.0 / 3.0) * x * FinvT)
         return x, b, j, D, FinvT
 
@@ -135,10 +137,13 @@ class NeoHookeStiffening(Material):
     def stress(self, H):
         if self.C20_kPa == 0:
             return self._nh.stress(H)
-        kin = kinematics(H)
-        _, Finv, lnJ, _ = kin
-        _, b, _, D, _ = self._invariants(H, Finv, lnJ)
-        return self._nh._stress(H, *kin) + (2.0 * self.C20_kPa * b) * D
+        _, Finv, lnJ, _ = kinematics(H)
+        # F - F^-T once for both parts: P_NH = mu (F - F^-T) + lam ln J F^-T
+        FinvT = np.swapaxes(Finv, 0, 1)
+        F_minus_FinvT = H + np.einsum("iK...,JK...->iJ...", FinvT, H)
+        _, b, _, D, _ = self._invariants(H, Finv, lnJ, F_minus_FinvT)
+        mu, lam = self.lame
+        return mu * F_minus_FinvT + lam * lnJ * FinvT + (2.0 * self.C20_kPa * b) * D
 
     def stress_parameter_derivative(self, H, name):
         """dP/dp at fixed ``H`` (kPa per unit of p), p = ``"E_kPa"``, ``"nu"`` or ``"C20_kPa"``.
@@ -182,11 +187,12 @@ class NeoHookeStiffening(Material):
         # The hot path of every Newton iteration: only the len(pairs) x len(pairs)
         # components (5 x 5 in axisymmetry), with the outer products of the
         # docstring grouped as d x (c d) + w x v + v x u + g G.
-        P, A = self._nh.tangent_components(H, pairs)
         if self.C20_kPa == 0:
-            return P, A
+            return self._nh.tangent_components(H, pairs)
+        kin = kinematics(H)
+        P, A = self._nh._tangent_components(H, pairs, kin)
         c = 2.0 * self.C20_kPa
-        _, Finv, lnJ, _ = kinematics(H)
+        _, Finv, lnJ, _ = kin
         x, b, j = self._scalars(H, lnJ)
         rows = np.array([i for i, _ in pairs])
         cols = np.array([k for _, k in pairs])
