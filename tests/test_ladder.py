@@ -26,9 +26,9 @@ def ctx(gallery_cache, diagnosis_surfaces):
     return Context(cache_dir=gallery_cache, workers=2)
 
 
-def _own(effects, theta, *, sigma, seed, protocol=None, shift_mm=0.0):
+def _own(effects, theta, *, sigma, seed, protocol=None, shift_mm=0.0, mesh="coarse"):
     protocol = protocol or Protocol.ramp(0.6, 100, 0.02)
-    curve = Model(tuple(effects)).simulate(theta, protocol=protocol, mesh="coarse")
+    curve = Model(tuple(effects)).simulate(theta, protocol=protocol, mesh=mesh)
     force = curve.force_mN + np.random.default_rng(seed).normal(0.0, sigma, curve.force_mN.size)
     depth, time = curve.depth_mm, curve.time_s
     if shift_mm:  # the contact point at +shift: nothing before it, the curve after it
@@ -116,7 +116,12 @@ def test_two_elastic_effects_named(case, ctx):
     else:
         truth = {"E_kPa": 8.0, "nu": 0.47, "thickness_mm": 1.5, "ratio": 0.3, "C20_kPa": 16.0}
         effects, expected = ("layer", "stiffening"), ["layer", "stiffening"]
-    m = _own(effects, truth, sigma=sigma, seed=21)
+    # the curve is solved at each of its 100 depths: on the coarse mesh such a curve wiggles by
+    # 0.09% rms (0.44% max) as the contact edge crosses its nodes, ~0.02 mN here, a structure of
+    # the synthetic data that measured curves do not have (the fits' runs interpolate a smooth
+    # curve between solved depths); on the medium mesh by 0.03% rms
+    mesh = "medium" if case == "two layers on a rigid base" else "coarse"
+    m = _own(effects, truth, sigma=sigma, seed=21, mesh=mesh)
     d = diagnose(m, candidates=("layer", "stiffening", "offset"), context=ctx)
     assert sorted(d.missing) == expected or d.verdict == "ambiguous", d.report()
     _ends_at_the_noise(d, sigma)

@@ -228,8 +228,9 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         non-adhesive). Friction is history dependent: it needs a ``protocol``.
     sensitivities : bool
         Also compute the derivatives of the returned forces with respect to the
-        material parameters, by direct differentiation at every solved state (one
-        extra tangent factorisation per solved depth), into
+        material parameters, by differentiation of every solved state (one tangent
+        assembly and one adjoint solve per solved depth, preconditioned by the
+        Newton iterations' factorisation), into
         :attr:`ForceDepthCurve.sensitivities`. Only for :class:`NeoHooke` and
         :class:`NeoHookeStiffening` samples (one material or layers of them) with
         frictionless, non-adhesive contact. The derivatives are exact for the

@@ -23,9 +23,9 @@ What keeps it cheap and smooth:
 - **Finite differences in parallel.** :meth:`FECore.prefetch` runs the parameter sets
   of a Jacobian at once on the local processes of the :class:`~skin_indent.Context`.
 - **Sensitivities with every run.** A fit asks for the Jacobian at almost every point it
-  evaluates, so each run of :meth:`FECore.force` also solves for the direct-differentiation
-  sensitivities (+20-40% of a run, instead of a second run); a held parameter costs no run
-  (``jacobian(..., columns=)``).
+  evaluates, so each run of :meth:`FECore.force` also solves for the sensitivities (one
+  adjoint solve per depth, +15-20% of a run, instead of a second run); a held parameter
+  costs no run (``jacobian(..., columns=)``).
 - **Fits side by side.** The fits of several combinations on top of one rung (two layers,
   layer and stiffening) run at once, each in a thread whose runs go to worker processes
   (:meth:`FECore.in_workers`): a fit's evaluations are serial, so one fit alone leaves a
@@ -355,7 +355,7 @@ class FECore:
     def unit_force(self, depth_mm, rest, *, sensitivities: bool = True) -> np.ndarray:
         """Force (mN) at E = 1 kPa of the core parameters after E, at depths 0 < h <= ceiling (mm).
 
-        A new run also computes the sensitivities (``sensitivities``, +20-40% of its time):
+        A new run also computes the sensitivities (``sensitivities``, +15-20% of its time):
         a fit asks for the Jacobian at most points it evaluates, which then costs no run.
         """
         from ..simulate import not_a_knot_spline
