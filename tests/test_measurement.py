@@ -511,3 +511,18 @@ def test_baseline_reports_tilt_significance_and_a_flat_version():
     assert abs(tilted.slope_mN_per_mm - 1e-5) < 5 * tilted.slope_std_mN_per_mm
     level = flat.flat()
     assert level.slope_mN_per_mm == 0.0 and abs(level.offset_mN - 2e-6) < 3e-9
+
+
+@pytest.mark.parametrize("shift_mm", [0.02, 0.04])
+def test_a_curve_stiffening_with_depth_keeps_its_contact_point(shift_mm):
+    """A layer on a rigid base (v03: 2.9x the half-space force at 0.6 mm) recorded from before
+    contact: the contact point within a depth step of the truth, and no "pre-contact baseline"
+    made of its first samples in contact (a pure Hertz shape put it at 0.06-0.08 mm)."""
+    m = load_csv(HIDDEN / "v03_layer_rigid_base.csv")
+    step = m.depth_mm[1] - m.depth_mm[0]
+    pre = np.arange(0.0, shift_mm - 1e-9, step)
+    depth = np.r_[pre, m.depth_mm + shift_mm]
+    force = np.r_[np.random.default_rng(3).normal(0.0, 0.05, pre.size), m.force_mN]
+    cp = find_contact_point(measurement_from_arrays(depth, force, np.arange(depth.size) * 0.3, source="v03+shift"))
+    assert not cp.has_baseline
+    assert cp.depth_mm == pytest.approx(shift_mm, abs=step)

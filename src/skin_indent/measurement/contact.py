@@ -28,6 +28,14 @@ __all__ = [
 # Contact point: the Hertz-shaped fit F = b0 + a (d - d0)^1.5 uses the loading
 # curve up to where the force has risen by this fraction of its total rise.
 _HERTZ_EXPONENT = 1.5
+# ... with a stiffening term c (d - d0)^2 (c >= 0) where the curve's shape beyond
+# contact is not known: the first finite-thickness correction of Hertz for a layer
+# bonded to a stiffer base (Dimitriadis et al., Biophys. J. 82 (2002) 2798) and the
+# leading effect of strain stiffening. Without it, a curve that stiffens with depth
+# (a 2 mm layer on a rigid base: 4.6x the half-space force at 0.6 mm) is fitted by
+# moving d0 deep into the contact, and its first 0.07 mm in contact become a tilted
+# "pre-contact baseline".
+_STIFFENING_EXPONENT = 2.0
 _CONTACT_FIT_FORCE_FRACTION = 0.3
 _MIN_BASELINE_POINTS = 10  # approach samples before contact for a usable baseline
 _CONTACT_THRESHOLD_SIGMA = 8.0  # "deviation from baseline", in noise std
@@ -185,16 +193,35 @@ class ContactPoint:
     fit_end_depth_mm: float
 
 
-def _hertz_sse(depth, force, d0, free_offset) -> float:
-    """SSE of the least-squares ``force = b0 + a*max(depth - d0, 0)^1.5``, a >= 0.
+def _hertz_sse(depth, force, d0, free_offset, stiffening: bool = False) -> float:
+    """SSE of the least-squares ``force = b0 + a*max(depth - d0, 0)^1.5``, a >= 0
+    (``+ c*max(depth - d0, 0)^2``, c >= 0, with ``stiffening``).
 
     ``b0`` is fitted if `free_offset`, else fixed at 0.
     """
-    x = np.clip(depth - d0, 0.0, None) ** _HERTZ_EXPONENT
+    s = np.clip(depth - d0, 0.0, None)
+    x = s**_HERTZ_EXPONENT
     if free_offset:
-        force, x = force - force.mean(), x - x.mean()
-    sxx, sxy, sse = float(x @ x), float(x @ force), float(force @ force)
-    return sse - sxy * sxy / sxx if sxx > 0 and sxy > 0 else sse
+        force = force - force.mean()
+    columns = [x - x.mean() if free_offset else x]
+    if stiffening:
+        z = s**_STIFFENING_EXPONENT
+        columns.append(z - z.mean() if free_offset else z)
+    sse = float(force @ force)
+    best = sse
+    for col in columns:  # one term alone (a >= 0 or c >= 0)
+        sxx, sxy = float(col @ col), float(col @ force)
+        if sxx > 0 and sxy > 0:
+            best = min(best, sse - sxy * sxy / sxx)
+    if len(columns) == 2:  # both terms, where both coefficients come out >= 0
+        X = np.stack(columns)
+        G, r = X @ X.T, X @ force
+        det = G[0, 0] * G[1, 1] - G[0, 1] ** 2
+        if det > 1e-12 * G[0, 0] * G[1, 1]:
+            coef = np.array([G[1, 1] * r[0] - G[0, 1] * r[1], G[0, 0] * r[1] - G[0, 1] * r[0]]) / det
+            if np.all(coef >= 0):
+                best = min(best, sse - float(coef @ r))
+    return best
 
 
 _INV_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
@@ -221,14 +248,14 @@ def _golden_section(f, a: float, b: float, xatol: float) -> tuple[float, float]:
     return (c, fc) if fc <= fd else (d, fd)
 
 
-def _fit_contact(depth, force, lo, hi, free_offset) -> float:
+def _fit_contact(depth, force, lo, hi, free_offset, stiffening: bool = False) -> float:
     """Contact depth in [lo, hi] that minimises the Hertz-shaped SSE (grid, then golden section)."""
     if not hi > lo:
         return float(lo)
     grid = np.linspace(lo, hi, 201)
-    sse = [_hertz_sse(depth, force, d0, free_offset) for d0 in grid]
+    sse = [_hertz_sse(depth, force, d0, free_offset, stiffening) for d0 in grid]
     k = int(np.argmin(sse))
-    x, fx = _golden_section(lambda d0: _hertz_sse(depth, force, d0, free_offset),
+    x, fx = _golden_section(lambda d0: _hertz_sse(depth, force, d0, free_offset, stiffening),
                             float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)]), (hi - lo) * 1e-6)
     return float(x) if fx <= sse[k] else float(grid[k])
 
@@ -303,9 +330,9 @@ def find_contact_point(
         raise MeasurementError(f"{measurement.source}: the force does not rise during loading")
     end = max(end, min(depth.size - 1, 2))
     part = slice(0, end + 1)
-    d0 = _fit_contact(depth[part], force[part], depth[0], depth[end], free_offset=True)
+    d0 = _fit_contact(depth[part], force[part], depth[0], depth[end], free_offset=True, stiffening=True)
     if baseline is None and np.sum(depth < d0) < _MIN_BASELINE_POINTS:
-        d0 = _fit_contact(depth[part], force[part], depth[0], depth[end], free_offset=False)
+        d0 = _fit_contact(depth[part], force[part], depth[0], depth[end], free_offset=False, stiffening=True)
         return ContactPoint(d0, False, None, None, float(depth[end]))
     if baseline is None:
         baseline = _fit_baseline(approach, fraction, max_depth_mm=d0)
