@@ -299,9 +299,11 @@ def find_contact_point(
     tolerance), so it works for AFM curves (nN, um) as for skin (mN, mm).
 
     1. On the loading curve up to where the force has risen by 30% of its
-       total rise, fit ``F = b0 + a (d - d0)^1.5``: a Hertz-shaped contact on a
-       flat baseline; ``d0`` by a 1-D search no earlier than the first sample,
-       ``b0`` and ``a >= 0`` by linear least squares.
+       total rise, fit ``F = b0 + a (d - d0)^1.5 + c (d - d0)^2``: a Hertz-shaped
+       contact on a flat baseline, with the first correction of a curve that
+       stiffens with depth (a layer on a stiffer base, strain stiffening);
+       ``d0`` by a 1-D search no earlier than the first sample, ``b0``,
+       ``a >= 0`` and ``c >= 0`` by linear least squares.
     2. If fewer than 10 samples lie before that ``d0`` there is no usable
        baseline (skin curves that start in contact). The force offset cannot
        then be told apart from the contact depth, so the force is taken as
