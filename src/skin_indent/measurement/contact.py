@@ -334,7 +334,7 @@ def find_contact_point(
     part = slice(0, end + 1)
     d0 = _fit_contact(depth[part], force[part], depth[0], depth[end], free_offset=True, stiffening=True)
     if baseline is None and np.sum(depth < d0) < _MIN_BASELINE_POINTS:
-        d0 = _fit_contact(depth[part], force[part], depth[0], depth[end], free_offset=False)
+        d0 = _fit_contact(depth[part], force[part], depth[0], depth[end], free_offset=False, stiffening=True)
         return ContactPoint(d0, False, None, None, float(depth[end]))
     if baseline is None:
         baseline = _fit_baseline(approach, fraction, max_depth_mm=d0)
