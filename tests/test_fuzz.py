@@ -195,17 +195,16 @@ def valid_curves(draw):
     n = draw(st.integers(8, 60))
     h = np.linspace(draw(st.floats(0.01, 0.1)), draw(st.floats(0.3, 0.6)), n)
     F = E * unit_curve(nu, h)
-    depth_name, dscale = draw(st.sampled_from([("depth_mm", 1.0), ("depth_um", 1e3), ("depth_m", 1e-3)]))
-    force_name, fscale = draw(st.sampled_from([("force_mN", 1.0), ("force_N", 1e-3), ("force_uN", 1e3)]))
+    depth_name, dscale = draw(st.sampled_from([("depth_mm", 1.0), ("depth_um", 1e3), ("depth_nm", 1e6), ("depth_m", 1e-3)]))
+    force_name, fscale = draw(st.sampled_from([("force_mN", 1.0), ("force_N", 1e-3), ("force_uN", 1e3), ("force_nN", 1e6)]))
     delim = draw(st.sampled_from([",", ";", "\t"]))
     text = f"{depth_name}{delim}{force_name}\n" + "".join(
         f"{float(a * dscale)!r}{delim}{float(b * fscale)!r}\n" for a, b in zip(h, F))
     return (E, nu), text.encode()
 
 
-# derandomized: a random draw found E 1.99949 for 2.0 (8 points from 0.0625 mm, nu 0.398; 2.5e-4, the
-# same before and after the contact-point change of 2026-11-25): an open defect of the fit's tolerance,
-# recorded on issue 13, not a reason for CI to fail one run in many
+# derandomized so that CI runs the same 25 curves every time; a random draw once found E 1.99949 for 2.0
+# (an absolute gtol stopped early in the E-nu valley of a short curve), kept as the test below
 @settings(max_examples=25, deadline=None, suppress_health_check=FIXTURE_OK, derandomize=True)
 @given(case=valid_curves())
 def test_fit_cli_recovers_parameters_in_any_units(tmp_path, capsys, surface_file, case):
@@ -216,6 +215,23 @@ def test_fit_cli_recovers_parameters_in_any_units(tmp_path, capsys, surface_file
     assert code == 0, err
     p = json.loads(out)["parameters"]
     assert p["E_kPa"] == pytest.approx(E, rel=1e-4) and p["nu"] == pytest.approx(nu, abs=1e-4)
+
+
+@pytest.mark.parametrize("force_name, fscale", [("force_mN", 1.0), ("force_nN", 1e6)])
+def test_a_short_curve_is_fitted_to_round_off(tmp_path, capsys, surface_file, force_name, fscale):
+    """8 noise-free points to 0.3 mm (E and nu correlated to -0.999997): the fit stops at the minimum,
+    not where an absolute gradient tolerance first holds (it left E 2.5e-4 off), in mN as in nN."""
+    E, nu = 2.0, 0.3984375
+    h = np.linspace(0.0625, 0.3, 8)
+    path = tmp_path / "short.csv"
+    path.write_text(f"depth_mm,{force_name}\n" + "".join(
+        f"{a!r},{b!r}\n" for a, b in zip(h.tolist(), (E * unit_curve(nu, h) * fscale).tolist())))
+    code, out, err = run_cli(capsys, ["fit", path, "--surface", surface_file, "--json"])
+    assert code == 0, err
+    result = json.loads(out)
+    assert result["parameters"]["E_kPa"] == pytest.approx(E, rel=1e-8)
+    assert result["parameters"]["nu"] == pytest.approx(nu, abs=1e-8)
+    assert result["quality"]["verdict"] == "fits below the noise level"
 
 
 @pytest.mark.parametrize("damage", ["valid", "bad last cell"])

@@ -229,10 +229,11 @@ def _parse_fix(items) -> dict[str, float]:
 def _add_fit(sub):
     p = sub.add_parser("fit", help="identify E and nu from a measured curve",
                        description="Fit a neo-Hookean half-space to the loading (approach) segment of a measured "
-                                   "curve (CSV with depth_mm|depth_um|depth_m, force_mN|force_N|force_uN, optional "
-                                   "time_s; or an instrument file such as JPK .jpk-force with the optional "
-                                   "afmformats package). A curve that starts before contact gets its force baseline "
-                                   "subtracted (and reported) and its contact point fitted with the material.")
+                                   "curve (CSV with depth_mm|depth_um|depth_nm|depth_m, "
+                                   "force_mN|force_N|force_uN|force_nN, optional time_s; or an instrument file "
+                                   "such as JPK .jpk-force with the optional afmformats package). A curve that "
+                                   "starts before contact gets its force baseline subtracted (and reported) and its "
+                                   "contact point fitted with the material.")
     p.add_argument("data", type=Path, nargs="+",
                    help="measurement files or folders: CSV, Chiaro .txt, or .jpk-force / .jpk-force-map etc. with "
                         "afmformats installed; several curves (a folder, a force map) are fitted in parallel")

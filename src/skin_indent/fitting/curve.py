@@ -25,6 +25,8 @@ from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
 MISFIT_LIMIT = 3.0
 #: a misfit above this many times the independent noise: the modulus itself is not to be trusted (a flag)
 MISFIT_FLAG = 10.0
+#: a misfit below this fraction of the independent noise: the residual's pattern is not judged
+MISFIT_FLOOR = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,6 +185,10 @@ def quality(prepared, residual_mN, n_free: int) -> dict:
     misfit = rms / noise
     if misfit > MISFIT_LIMIT:
         verdict = "misfit far above the noise: the model does not describe this curve; try `skin-indent diagnose`"
+    elif misfit < MISFIT_FLOOR:
+        # a residual well under the data's own noise level carries no evidence of a missing effect,
+        # whatever its pattern (noise-free or smoothed data: the pattern is round-off or interpolation)
+        verdict = "fits below the noise level"
     elif not analysis.white:
         verdict = "structured misfit: try `skin-indent diagnose`"
     else:

@@ -18,7 +18,7 @@ __all__ = ["fit_least_squares"]
 @in_force_units
 def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | None = None,
                       noise_mN: float | None = None, coordinates: str = "auto", x_scale="jac",
-                      loss: str = "linear", ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-8,
+                      loss: str = "linear", ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-10,
                       max_nfev: int | None = None) -> IdentificationResult:
     """Fit the free parameters by bounded least squares.
 
@@ -53,10 +53,15 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
         Scaling of ``u`` passed to scipy (``"jac"``: inverse column norms of J).
     loss : str
         scipy loss (``"linear"`` for ordinary least squares; robust losses change
-        the meaning of the covariance).
+        the meaning of the covariance, and their soft margin, scipy's
+        ``f_scale = 1``, is one RMS of the measured force).
     ftol, xtol, gtol : float
         scipy tolerances. Tight defaults: the curves have 100 points, each
-        iteration is cheap.
+        iteration is cheap. The residuals handed to scipy are divided by the
+        RMS of the measured force, so ``gtol`` (scipy's is absolute) is relative
+        to the data's force scale: the same for an AFM curve (nN) as for skin
+        (mN). A loose ``gtol`` stops early in the narrow E-nu valley of a short
+        curve (8 points to 0.3 mm: 1e-8 absolute left E 2.5e-4 off).
     max_nfev : int, optional
         Function-evaluation limit (scipy default if None).
 
@@ -83,15 +88,16 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
     coords = Coordinates(problem.free_names, lo, hi, coordinates)
 
     iterates = []
+    scale = float(np.sqrt(np.mean(problem.force_mN**2))) or 1.0  # mN: tolerances relative to the data
 
     def fun(u):
         x = coords.external(u)[0]
         iterates.append(x)
-        return problem.model_force(x) - problem.force_mN
+        return (problem.model_force(x) - problem.force_mN) / scale
 
     def jac(u):
         x, dxdu = coords.external(u)
-        return problem.model_jacobian(x) @ dxdu
+        return problem.model_jacobian(x) @ dxdu / scale
 
     from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
 

@@ -30,9 +30,9 @@ __all__ = ["DEPTH_COLUMNS", "FORCE_COLUMNS", "TIME_COLUMN", "load_csv", "parse_r
            "save_csv"]
 
 #: Accepted depth column names and the factor that converts each to mm.
-DEPTH_COLUMNS = {"depth_mm": 1.0, "depth_um": 1e-3, "depth_m": 1e3}
+DEPTH_COLUMNS = {"depth_mm": 1.0, "depth_um": 1e-3, "depth_nm": 1e-6, "depth_m": 1e3}
 #: Accepted force column names and the factor that converts each to mN.
-FORCE_COLUMNS = {"force_mN": 1.0, "force_N": 1e3, "force_uN": 1e-3}
+FORCE_COLUMNS = {"force_mN": 1.0, "force_N": 1e3, "force_uN": 1e-3, "force_nN": 1e-6}
 #: The optional time column (s).
 TIME_COLUMN = "time_s"
 
@@ -215,8 +215,8 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
     Notes
     -----
     - The header needs exactly one depth column (``depth_mm``, ``depth_um``,
-      ``depth_m``) and exactly one force column (``force_mN``, ``force_N``,
-      ``force_uN``); ``time_s`` is optional. Names are case-sensitive. Other
+      ``depth_nm``, ``depth_m``) and exactly one force column (``force_mN``,
+      ``force_N``, ``force_uN``, ``force_nN``); ``time_s`` is optional. Names are case-sensitive. Other
       columns are ignored, not even parsed. Values are converted to mm and mN
       and the conversion is recorded in :attr:`Measurement.columns`.
     - Delimiter: the first of comma, semicolon and tab that splits the header
