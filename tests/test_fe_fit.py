@@ -361,17 +361,25 @@ def _full_cov(model, res):
 
 @pytest.mark.slow
 def test_add_layer_twice_is_two_layers_in_diagnosis():
-    """``add=("layer", "layer")`` fits two layers (the finite-element model in the loop), not an error."""
+    """``add=("layer", "layer")`` fits two layers (the finite-element model in the loop), not an error,
+    and finds them: the curve (medium mesh, as measured curves have no coarse-mesh node crossings)
+    is explained within the noise allowance and the layers are within 3 sd of the truth."""
     from skin_indent.diagnosis import diagnose
     from skin_indent.measurement import measurement_from_arrays
     from skin_indent.protocol import Protocol
 
     truth = {"E_kPa": 15.0, "nu": 0.48, "thickness_mm": 1.0, "ratio": 0.2, "thickness2_mm": 2.0, "ratio2": math.inf}
-    curve = Model(("layer", "layer")).simulate(truth, protocol=Protocol.ramp(0.6, 50, 0.02), mesh="coarse")
+    curve = Model(("layer", "layer")).simulate(truth, protocol=Protocol.ramp(0.6, 50, 0.02), mesh="medium")
     force = curve.force_mN + np.random.default_rng(3).normal(0.0, 0.03, curve.force_mN.size)
     m = measurement_from_arrays(curve.depth_mm, force, curve.time_s, source="two layers on a rigid base")
     d = diagnose(m, add=("layer", "layer"), candidates=(), noise_mN=0.03, max_rungs=0)
     assert [f.model for f in d.ladder] == ["neo-hooke", "neo-hooke+layer", "neo-hooke+layer+layer"]
     top = d.current
     assert top.forward_runs > 0 and "thickness2_mm" in top.parameters
-    assert top.rms_mN < 1.3 * 0.03, d.report()
+    # within 1.3x the noise allowance: the noise and the coarse in-loop model's 0.3% (at 27 mN the
+    # coarse mesh alone is 0.027 mN RMS from this medium-mesh curve, as far as the noise)
+    allowance = float(np.sqrt(np.mean(d.fitter.sigma(top.prediction_mN) ** 2)))
+    assert top.rms_mN < 1.3 * allowance, d.report()
+    for k in ("E_kPa", "thickness_mm", "ratio", "thickness2_mm"):
+        assert abs(top.parameters[k] - truth[k]) < 3 * top.std[k], (k, top.parameters[k], top.std[k])
+    assert math.isinf(top.parameters["ratio2"])

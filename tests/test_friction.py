@@ -289,3 +289,26 @@ def test_frictional_tangent_equals_finite_difference_and_force_is_vertical_resul
     b = prob.solid.basis
     vertical = np.r_[b.nodal_dofs[1], b.facet_dofs[1]]
     assert np.sum(f[vertical]) == pytest.approx(force, rel=1e-12)
+
+
+def test_full_stick_check_is_kept_in_the_run_cache(tmp_path, monkeypatch):
+    """The diagnosis' full-stick check (two runs) is kept in ``cache_dir/checks``: a second call
+    reads it (no run), a damaged file is made again, and a different nu is a different entry."""
+    from skin_indent.effects import friction
+
+    calls = []
+
+    def runs(nu, depth_mm, radius_mm):
+        calls.append(nu)
+        return np.array([0.1, 0.2]), np.array([1.0 + nu, 1.0 + nu / 2])
+
+    monkeypatch.setattr(friction, "_full_stick_runs", runs)
+    first = friction.full_stick_ratio(0.3, 0.6, 6.22, cache_dir=tmp_path)
+    again = friction.full_stick_ratio(0.3, 0.6, 6.22, cache_dir=tmp_path)
+    assert calls == [0.3]
+    np.testing.assert_array_equal(first[1], again[1])
+    (path,) = (tmp_path / "checks").glob("*.npz")
+    path.write_bytes(b"not an npz")
+    np.testing.assert_array_equal(friction.full_stick_ratio(0.3, 0.6, 6.22, cache_dir=tmp_path)[1], first[1])
+    friction.full_stick_ratio(0.4, 0.6, 6.22, cache_dir=tmp_path)
+    assert calls == [0.3, 0.3, 0.4] and len(list((tmp_path / "checks").glob("*.npz"))) == 2

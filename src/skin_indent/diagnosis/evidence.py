@@ -12,17 +12,42 @@ from ..effects import DEPTH, HISTORY, effect
 HOLD_S = 30.0
 
 
-def _forward_difference(fitter, a, b, radius_mm, depth_mm) -> float:
-    """Max |F_a - F_b| (mN) of forward FE runs of the two fitted models (contact shift left out)."""
+def _model_force(effects: tuple, radius_mm: float, theta: dict, depth_mm: float) -> np.ndarray:
+    """Force (mN) of a forward FE run (coarse mesh) of ``effects`` with ``theta`` (a worker task)."""
     from ..effects import Model
 
-    forces = []
-    for f in (a, b):
-        effects = tuple(e for e in f.effects if effect(e).stage != DEPTH)
-        theta = {k: v for k, v in f.parameters.items()
-                 if k in Model(effects, radius_mm).parameter_names}
-        forces.append(Model(effects, radius_mm).simulate(theta, depth_mm, mesh="coarse").force_mN)
-    return float(np.max(np.abs(forces[0] - forces[1])))
+    return Model(effects, radius_mm).simulate(theta, depth_mm, mesh="coarse").force_mN
+
+
+def _run_task(a, radius_mm, depth_mm) -> tuple:
+    """Arguments of :func:`_model_force` for the fitted model ``a`` (contact shift left out)."""
+    from ..effects import Model
+
+    effects = tuple(e for e in a.effects if effect(e).stage != DEPTH)
+    names = Model(effects, radius_mm).parameter_names
+    return effects, radius_mm, {k: v for k, v in a.parameters.items() if k in names}, depth_mm
+
+
+def _forward_differences(fitter, a, b, scenarios: dict) -> dict:
+    """``{label: max |F_a - F_b| (mN)}`` over forward FE runs of the two fitted models, for each
+    ``label: (radius_mm, depth_mm)`` of ``scenarios``; the runs go to the diagnosis' workers.
+    A scenario whose runs fail is left out."""
+    from ..response_surface import make_executor
+
+    tasks = [((label, k), _run_task(f, radius, depth))
+             for label, (radius, depth) in scenarios.items() for k, f in enumerate((a, b))]
+    context = getattr(fitter, "context", None)
+    options = {} if context is None else {"workers": context.workers, "client": context.client,
+                                          "scheduler": context.scheduler}
+    if options.get("client") is not None or options.get("scheduler") is not None:
+        options.pop("workers")
+    forces = {}
+    with make_executor(tasks=len(tasks), **options) as executor:
+        for (label, k), value, error in executor.imap_unordered(_model_force, tasks):
+            if error is None:
+                forces[label, k] = value
+    return {label: float(np.max(np.abs(forces[label, 0] - forces[label, 1])))
+            for label in scenarios if (label, 0) in forces and (label, 1) in forces}
 
 
 def _hold_difference(fitter, a, b) -> float:
@@ -58,12 +83,12 @@ def suggest_measurement(fitter, a, b) -> str:
     objs = [effect(e) for e in (*a.effects, *b.effects)]
     if not any(e.needs_history for e in objs):
         hmax, R = fitter.max_depth, fitter.radius_mm
-        for label, radius, depth in ((f"a sphere of half the radius (R = {R / 2:.3g} mm) to the same depth", R / 2, hmax),
-                                     (f"an indentation 1.5 times deeper ({1.5 * hmax:.3g} mm)", R, 1.5 * hmax)):
-            try:
-                out[label] = _forward_difference(fitter, a, b, radius, depth)
-            except Exception:  # noqa: BLE001 - a measurement we cannot predict is not suggested
-                continue
+        scenarios = {f"a sphere of half the radius (R = {R / 2:.3g} mm) to the same depth": (R / 2, hmax),
+                     f"an indentation 1.5 times deeper ({1.5 * hmax:.3g} mm)": (R, 1.5 * hmax)}
+        try:
+            out.update(_forward_differences(fitter, a, b, scenarios))
+        except Exception:  # noqa: BLE001 - a measurement we cannot predict is not suggested
+            pass
     if fitter.data.time_s is not None and any(e.stage == HISTORY for e in objs):
         try:
             out[f"a {HOLD_S:g} s hold at the deepest point"] = _hold_difference(fitter, a, b)

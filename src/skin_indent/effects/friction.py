@@ -9,6 +9,7 @@ against what refitting E and nu absorbs.
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 
@@ -19,8 +20,7 @@ DETECTABLE = 10.0
 
 
 @functools.lru_cache(maxsize=32)
-def full_stick_ratio(nu: float, depth_mm: float, radius_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """Depths (mm) and F(full stick) / F(frictionless) of a neo-Hookean half-space (coarse FE, 24 steps)."""
+def _full_stick_runs(nu: float, depth_mm: float, radius_mm: float) -> tuple[np.ndarray, np.ndarray]:
     from ..simulate import simulate
     from ..mechanics.contact import ContactLaw, SphericalIndenter
     from ..mechanics.materials import NeoHooke
@@ -30,6 +30,50 @@ def full_stick_ratio(nu: float, depth_mm: float, radius_mm: float) -> tuple[np.n
     runs = [simulate(NeoHooke(1.0, nu), SphericalIndenter(radius_mm), depth_mm, protocol=ramp, mesh="coarse",
                      contact=ContactLaw(friction=mu)) for mu in (0.0, 1.0)]
     return runs[0].depth_mm[1:], runs[1].force_mN[1:] / runs[0].force_mN[1:]
+
+
+def full_stick_ratio(nu: float, depth_mm: float, radius_mm: float,
+                     cache_dir=None) -> tuple[np.ndarray, np.ndarray]:
+    """Depths (mm) and F(full stick) / F(frictionless) of a neo-Hookean half-space (coarse FE, 24 steps).
+
+    Two runs (about 3 s each, the frictional one the slower). With ``cache_dir`` the result
+    is kept in its ``checks`` folder, keyed by the arguments and the forward model's code
+    version (as the surfaces are), so a second diagnosis of the same curve does not rerun them.
+    """
+    if cache_dir is None:
+        return _full_stick_runs(nu, depth_mm, radius_mm)
+    import hashlib
+    import json
+    import zipfile
+
+    from .._atomic import atomic_write
+    from ..response_surface import default_settings
+
+    key = json.dumps({"check": "full-stick ratio", "nu": nu, "depth_mm": depth_mm, "radius_mm": radius_mm,
+                      "code_version": default_settings(radius_mm, "coarse")["code_version"]}, sort_keys=True)
+    path = Path(cache_dir) / "checks" / f"{hashlib.sha256(key.encode()).hexdigest()[:24]}.npz"
+    try:
+        with np.load(path) as z:
+            if str(z["key"]) == key:
+                return z["depth_mm"], z["ratio"]
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):  # not there yet, or damaged: made again
+        pass
+    depths, ratio = _full_stick_runs(nu, depth_mm, radius_mm)
+    try:
+        atomic_write(path, lambda fh: np.savez(fh, key=np.array(key), depth_mm=depths, ratio=ratio))
+    except OSError:  # a read-only cache: the check still stands
+        pass
+    return depths, ratio
+
+
+def _cache_dir(diagnosis):
+    """The run cache of the diagnosis' context (None: kept in memory only)."""
+    context = getattr(diagnosis, "context", None)
+    if context is None:
+        return None
+    from ..response_surface import default_cache_dir
+
+    return context.cache_dir if context.cache_dir is not None else default_cache_dir()
 
 
 class Friction(Effect):
@@ -55,7 +99,8 @@ class Friction(Effect):
         touch = h > 0
         hmax = float(h[touch].max())
         try:
-            depths, ratio_curve = full_stick_ratio(round(nu, 3), float(f"{hmax:.3g}"), d.radius_mm)
+            depths, ratio_curve = full_stick_ratio(round(nu, 3), float(f"{hmax:.3g}"), d.radius_mm,
+                                                   cache_dir=_cache_dir(diagnosis))
         except Exception as exc:  # noqa: BLE001 - reported, not fatal
             return f"the full-stick check did not run ({type(exc).__name__}: {exc})"
         ratio = np.interp(h[touch], depths, ratio_curve)
