@@ -183,7 +183,8 @@ def test_a_run_in_workers_is_the_run_made_here():
 
 def test_fits_in_the_loop_run_side_by_side():
     """``Fitter.fit_all``: the fits of different finite-element cores run at once (threads), in
-    their cores' ``in_workers`` blocks; fits on surfaces and errors keep their keys and order."""
+    their cores' ``in_workers`` blocks, their workers started from the main thread; fits on
+    surfaces and errors keep their keys and order."""
     import contextlib
     import threading
     import time
@@ -204,6 +205,9 @@ def test_fits_in_the_loop_run_side_by_side():
             yield self
             self.inside = False
 
+        def start_workers(self):
+            self.started_in = threading.current_thread()
+
         def cancel(self):
             self.cancelled = True
 
@@ -223,6 +227,7 @@ def test_fits_in_the_loop_run_side_by_side():
             core = self.model(key).core
             if isinstance(core, Core):
                 assert core.inside
+                assert core.started_in is threading.main_thread()  # its workers forked from there
                 barrier.wait()
                 time.sleep(0.01)
             return SimpleNamespace(effects=key)
@@ -391,3 +396,21 @@ def test_add_layer_twice_is_two_layers_in_diagnosis():
     for k in ("E_kPa", "thickness_mm", "ratio", "thickness2_mm"):
         assert abs(top.parameters[k] - truth[k]) < 3 * top.std[k], (k, top.parameters[k], top.std[k])
     assert math.isinf(top.parameters["ratio2"])
+
+
+def test_started_workers_are_forked_before_the_first_run():
+    """``FECore.start_workers`` forks the worker processes at once (from the calling thread): the
+    first run in them then forks nothing more."""
+    import multiprocessing
+
+    core = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=2)
+    try:
+        before = {p.pid for p in multiprocessing.active_children()}
+        core.start_workers()
+        started = {p.pid for p in multiprocessing.active_children()} - before
+        assert len(started) == 2
+        with core.in_workers():
+            core.force(np.array([0.1, 0.3]), np.array([8.0, 0.45, 0.9, 0.5]))
+        assert core.runs == 1 and {p.pid for p in multiprocessing.active_children()} - before == started
+    finally:
+        core.close()

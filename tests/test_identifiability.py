@@ -219,3 +219,26 @@ def test_physical_limits_are_declared_not_named():
     assert not idf.at_physical_limit(model, mid, "no such parameter")
     with pytest.raises(ValueError, match="physical_limit"):
         EffectParameter("x", "-", 0.0, 1.0, None, False, "x", physical_limit="top")
+
+
+def test_alternatives_side_by_side_start_their_workers_in_the_main_thread(shallow, monkeypatch):
+    """With several workers the alternatives run in threads; their worker processes are forked
+    from the main thread before those start (never from a thread), and the predictions equal
+    those made one after the other in this process."""
+    import threading
+
+    from skin_indent.context import Context
+
+    fitter, rung = shallow.fitter, shallow.current
+    serial = idf.assess(fitter, rung)
+    started = []
+    real = FECore.start_workers
+    monkeypatch.setattr(FECore, "start_workers",
+                        lambda self: started.append(threading.current_thread()) or real(self))
+    monkeypatch.setattr(fitter, "context", Context(workers=2))
+    side = idf.assess(fitter, rung)
+    assert len(started) == len(idf.ALTERNATIVES) and all(t is threading.main_thread() for t in started)
+    for a, b in zip(serial, side):
+        assert a.label == b.label and (a.std is None) == (b.std is None)
+        if a.std is not None:
+            assert b.std == pytest.approx(a.std, rel=1e-9)

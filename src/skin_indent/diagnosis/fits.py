@@ -408,6 +408,7 @@ class Fitter:
             with contextlib.ExitStack() as stack:
                 for core in cores:
                     stack.enter_context(core.in_workers())
+                    core.start_workers()  # forked from this (the main) thread, not from the fits'
                 pool = ThreadPoolExecutor(max_workers=len(groups))
                 try:
                     for out in pool.map(attempt, groups.values()):

@@ -250,7 +250,7 @@ def reported_std(model, x, J, sigma, free) -> dict:
 
 
 def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: float = 1.0,
-                  error_model: bool = True, in_workers: bool = False) -> tuple[dict, int]:
+                  error_model: bool = True, in_workers: bool = False, bound: tuple | None = None) -> tuple[dict, int]:
     """Standard deviation every reported parameter of ``rung`` would have under another measurement.
 
     The fitted model at its fitted parameters, with the finite-element model as its
@@ -281,6 +281,8 @@ def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: flo
         covariance (``noise^2 (J^T J)^-1``).
     in_workers : bool
         Make the runs in worker processes (:func:`assess` computes several at once).
+    bound : tuple, optional
+        Passed to :func:`alternative_jacobian`.
 
     Returns
     -------
@@ -295,7 +297,8 @@ def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: flo
         A finite-element run failed, or the indentation leaves the model's range.
     """
     model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    J, force, runs = alternative_jacobian(fitter, rung, radius_factor, depth_factor, in_workers=in_workers)
+    J, force, runs = alternative_jacobian(fitter, rung, radius_factor, depth_factor, in_workers=in_workers,
+                                          bound=bound)
     sigma = fitter.sigma(force) if error_model else np.full(force.shape, float(fitter.noise_mN))
     held = _held(rung)
     names = model.parameter_names
@@ -303,8 +306,18 @@ def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: flo
     return reported_std(model, x, J, sigma, free), runs
 
 
+def _bind(fitter, rung, radius_factor: float, depth_factor: float) -> tuple:
+    """``(alternative_model, indentation h (mm))`` of the rung for another measurement."""
+    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
+    h = _indentation(model, x)
+    if not np.any(h > 0):
+        raise ValueError("no recorded point is in contact in the fitted model")
+    workers = getattr(getattr(fitter, "context", None), "workers", None)
+    return alternative_model(rung, h, radius_factor, depth_factor, mesh=fitter.mesh, workers=workers), h
+
+
 def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor: float = 1.0, *,
-                         in_workers: bool = False) -> tuple:
+                         in_workers: bool = False, bound: tuple | None = None) -> tuple:
     """Jacobian of the rung's model at its fitted vector for another measurement, by finite elements.
 
     With ``radius_factor = depth_factor = 1`` it is the finite-element Jacobian of the
@@ -322,6 +335,9 @@ def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor:
     in_workers : bool
         Make the runs in worker processes, this thread only waiting for them
         (:meth:`~skin_indent.models.fe_core.FECore.in_workers`).
+    bound : tuple, optional
+        ``(model, h)`` of this measurement made before (by :func:`assess`, in the main
+        thread, its workers started there); default: made here.
 
     Returns
     -------
@@ -337,12 +353,8 @@ def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor:
     ValueError
         A finite-element run failed, or the indentation leaves the model's range.
     """
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    h = _indentation(model, x)
-    if not np.any(h > 0):
-        raise ValueError("no recorded point is in contact in the fitted model")
-    workers = getattr(getattr(fitter, "context", None), "workers", None)
-    new = alternative_model(rung, h, radius_factor, depth_factor, mesh=fitter.mesh, workers=workers)
+    x = np.asarray(rung.x, dtype=float)
+    new, h = bound if bound is not None else _bind(fitter, rung, radius_factor, depth_factor)
     core = new.core
     try:
         n_core = len(core.parameter_names)
@@ -388,23 +400,39 @@ def assess(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
     workers = getattr(getattr(fitter, "context", None), "workers", None) or 1
     concurrent = workers > 1 and len(alternatives) > 1
 
-    def predict(a):
-        label = a.describe(radius, h_max)
+    def failed(a, err):
+        first = str(err).splitlines()[0] if str(err) else ""
+        return Prediction(a, a.describe(radius, h_max), None, f"{type(err).__name__}: {first}")
+
+    def predict(a, bound=None):
+        if isinstance(bound, Exception):
+            return failed(a, bound)
         try:
             std, runs = predicted_std(fitter, rung, radius_factor=a.radius_factor, depth_factor=a.depth_factor,
-                                      in_workers=concurrent)
+                                      in_workers=concurrent, bound=bound)
         except Exception as err:  # noqa: BLE001 - a failed alternative is not suggested
-            first = str(err).splitlines()[0] if str(err) else ""
-            return Prediction(a, label, None, f"{type(err).__name__}: {first}")
-        return Prediction(a, label, std, None, runs)
+            return failed(a, err)
+        return Prediction(a, a.describe(radius, h_max), std, None, runs)
 
     if not concurrent:
         return [predict(a) for a in alternatives]
     from concurrent.futures import ThreadPoolExecutor
 
-    # the alternatives side by side, as many as there are workers: each thread waits for its runs
+    # the alternatives side by side, as many as there are workers: each thread waits for its runs,
+    # made by workers forked here, in the main thread, before the threads start
+    bound = []
+    for a in alternatives:
+        made = None
+        try:
+            made = _bind(fitter, rung, a.radius_factor, a.depth_factor)
+            made[0].core.start_workers()
+            bound.append(made)
+        except Exception as err:  # noqa: BLE001 - reported as that alternative's failure
+            if made is not None:
+                made[0].core.close()
+            bound.append(err)
     with ThreadPoolExecutor(max_workers=min(workers, len(alternatives))) as pool:
-        return list(pool.map(predict, alternatives))
+        return list(pool.map(predict, alternatives, bound))
 
 
 def suggestion(name: str, value: float, predictions) -> str:

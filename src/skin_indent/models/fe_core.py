@@ -311,6 +311,11 @@ class FECore:
         finally:
             self._in_workers = False
 
+    def start_workers(self) -> None:
+        """Start the worker processes now, from the calling thread (the main one, before threads
+        that make runs in them start: :meth:`~.LocalProcesses.start`)."""
+        self._pool().start()
+
     def cancel(self) -> None:
         """Refuse every further run (``RuntimeError``): a fit in another thread stops at its next
         run when the diagnosis is interrupted."""

@@ -138,6 +138,9 @@ class Executor:
         """
         raise NotImplementedError
 
+    def start(self) -> None:
+        """Start what runs the calls now, from the calling thread (nothing to start by default)."""
+
     def close(self) -> None:
         """Release processes or connections that this executor opened."""
 
@@ -208,6 +211,17 @@ class LocalProcesses(Executor):
         self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=self._mp_context,
                                          initializer=init_worker, initargs=(WORKER_THREADS,))
         return self._pool
+
+    def start(self):
+        """Start the worker processes now, from the calling thread.
+
+        A pool forks its processes at its first call. Threads that share the cores (fits of
+        one examination side by side) would then fork from a thread while another may hold a
+        lock, which the child inherits locked (Python warns of this from 3.12 on); started
+        here, from the main thread, before those threads run, they never do.
+        """
+        pool = self._pool or self._new_pool()
+        pool.submit(int).result()
 
     def _drop_pool(self):
         if self._pool is not None:
