@@ -125,7 +125,7 @@ def test_layer_on_rigid_base(contact_sets):
 
 def test_two_layers_on_rigid_base(contact_sets):
     make = lambda p: LayeredSample((Layer(0.3, NeoHooke(p, NU)), Layer(1.2, NeoHooke(4.0, NU))), RIGID)  # noqa: E731
-    _check(contact_sets, make, 13.0, (0, "E_kPa"), 0.1, DIRECT)
+    _check(contact_sets, make, 12.5, (0, "E_kPa"), 0.1, DIRECT)  # away from contact-set switches
 
 
 def test_offset(contact_sets):

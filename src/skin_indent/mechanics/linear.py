@@ -6,12 +6,89 @@ current one: :class:`TangentSolver` first tries conjugate gradients
 preconditioned with the stored factorisation (a few triangular solves), and
 refactorises with SuperLU only when that does not converge quickly. Tangents
 that are not symmetric (frictional slip) use GMRES and a general LU instead.
+
+All tangents of one problem share a sparsity pattern (:class:`~.axisymmetric.SparsityPattern`,
+contact entries included), so the fill-reducing ordering (minimum degree on
+``A^T + A``) is computed at the first factorisation only, and later tangents are
+factorised in that order (:class:`SymmetricOrdering`): the same factors without the
+ordering step (~20 % of a factorisation on the default mesh).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy import sparse
 from scipy.sparse.linalg import LinearOperator, cg, gmres, splu
+
+#: SuperLU options for tangents with a symmetric structure: diagonal pivots.
+_SYMMETRIC = dict(diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+
+
+class _PermutedLU:
+    """LU factors of ``K[order][:, order]``, solving ``K x = b``."""
+
+    def __init__(self, lu, order: np.ndarray, inverse: np.ndarray):
+        self._lu, self._order, self._inverse = lu, order, inverse
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        return self._lu.solve(b[self._order])[self._inverse]
+
+
+class SymmetricOrdering:
+    """The minimum-degree ordering of one sparsity pattern, reused by its factorisations.
+
+    :meth:`factorise` lets SuperLU compute its ``MMD_AT_PLUS_A`` ordering at the first
+    call; a later matrix with the same pattern (CSR ``indptr`` and ``indices``) has its
+    values gathered into that order and is factorised with the natural ordering. With
+    diagonal pivots these are the factors SuperLU computes by itself.
+    """
+
+    def __init__(self):
+        self._pattern = None
+
+    def _same_pattern(self, K) -> bool:
+        p = self._pattern
+        return (p is not None and K.shape == p["shape"] and K.nnz == p["take"].size
+                and np.array_equal(K.indptr, p["indptr"]) and np.array_equal(K.indices, p["indices"]))
+
+    def factorise(self, K):
+        """Factors of the sparse matrix ``K`` (an object with ``solve(b)``)."""
+        K = sparse.csr_matrix(K)
+        K.sort_indices()
+        if self._same_pattern(K):
+            p = self._pattern
+            Kp = sparse.csc_matrix((K.data[p["take"]], p["p_indices"], p["p_indptr"]), shape=K.shape)
+            return _PermutedLU(splu(Kp, permc_spec="NATURAL", **_SYMMETRIC), p["order"], p["inverse"])
+        lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", **_SYMMETRIC)
+        # column j of K is column perm_c[j] of the matrix SuperLU factorised
+        order = np.argsort(lu.perm_c)
+        # where each entry of K[order][:, order] (CSC) sits in K.data
+        ids = sparse.csr_matrix((np.arange(1.0, K.nnz + 1.0), K.indices, K.indptr), shape=K.shape)
+        permuted = ids[order][:, order].tocsc()
+        permuted.sort_indices()
+        self._pattern = dict(shape=K.shape, indptr=K.indptr.copy(), indices=K.indices.copy(),
+                             take=permuted.data.astype(np.int64) - 1, p_indices=permuted.indices,
+                             p_indptr=permuted.indptr, order=order, inverse=np.argsort(order))
+        return lu
+
+
+def symmetric_lu(K, ordering: SymmetricOrdering | None = None):
+    """LU factors of a sparse matrix with a symmetric structure, diagonal pivots.
+
+    Parameters
+    ----------
+    K : sparse matrix
+    ordering : SymmetricOrdering, optional
+        Keeps the fill-reducing ordering of the first matrix for later ones with
+        the same pattern.
+
+    Returns
+    -------
+    object with a ``solve(b)`` method
+    """
+    if ordering is None:
+        return splu(sparse.csc_matrix(K), permc_spec="MMD_AT_PLUS_A", **_SYMMETRIC)
+    return ordering.factorise(K)
 
 
 class TangentSolver:
@@ -45,6 +122,7 @@ class TangentSolver:
         self.stale_after = stale_after
         self._stale = False
         self._lu = None
+        self._ordering = SymmetricOrdering()
         self.factorisations = 0
         self.cg_solves = 0
         self.preconditioner_applications = 0
@@ -58,8 +136,7 @@ class TangentSolver:
             self._lu = splu(K.tocsc(), permc_spec="COLAMD")
             self.factorisations += 1
             return
-        self._lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                        options={"SymmetricMode": True})
+        self._lu = symmetric_lu(K, self._ordering)
         self.factorisations += 1
 
     def solve(self, K, b: np.ndarray, rtol: float | None = None) -> np.ndarray:

@@ -36,7 +36,7 @@ from scipy.sparse.linalg import LinearOperator, gmres, splu
 
 from .axisymmetric import AxisymmetricSolid, SparsityPattern
 from .contact import ContactLaw, SphereContact, SphericalIndenter
-from .linear import TangentSolver
+from .linear import TangentSolver, symmetric_lu
 from .materials import Material
 from .predictor import SimilarityPredictor, hertz_start
 from .mesh import IndentationMesh
@@ -63,8 +63,7 @@ class _FrictionalTangentSolver(TangentSolver):
         self._stale = False
 
     def _factorise(self, K):
-        self._lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                        options={"SymmetricMode": True})
+        self._lu = symmetric_lu(K, self._ordering)
         self.factorisations += 1
         self._stale = False
 
