@@ -62,11 +62,15 @@ class SparsityPattern:
         self.free_index[free] = np.arange(np.count_nonzero(free))
         self.n = int(np.count_nonzero(free))
         rows, cols, keep = self._coo(element_dofs)
-        keys = rows[keep] * self.n + cols[keep]
-        self._unique_keys, inverse = np.unique(keys, return_inverse=True)
-        self.indptr = np.searchsorted(self._unique_keys // self.n, np.arange(self.n + 1)).astype(np.int64)
-        self.indices = (self._unique_keys % self.n).astype(np.int64)
-        self._blocks = {id(element_dofs): (keep, inverse)}
+        rows, cols = rows[keep], cols[keep]
+        # the CSR structure by scipy's counting sort (duplicates summed, indices sorted),
+        # then each block entry's place in it: half the time of np.unique on the keys
+        A = sparse.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(self.n, self.n)).tocsr()
+        A.sum_duplicates()
+        self.indptr = A.indptr.astype(np.int64)
+        self.indices = A.indices.astype(np.int64)
+        self._unique_keys = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(self.indptr)) * self.n + self.indices
+        self._blocks = {id(element_dofs): (keep, np.searchsorted(self._unique_keys, rows * self.n + cols))}
 
     def _coo(self, element_dofs):
         fi = self.free_index[element_dofs]  # (n_local, n_blocks)
