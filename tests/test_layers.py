@@ -127,3 +127,18 @@ def test_neo_hookean_layers_in_one_pass_equal_the_per_layer_evaluation():
     f_each, K_each = solid.forces(u)
     assert np.abs(f_one - f_each).max() <= 1e-12 * np.abs(f_each).max()
     assert np.abs(K_one - K_each).max() <= 1e-12 * np.abs(K_each).max()
+
+
+def test_a_thin_layer_on_a_rigid_base_keeps_the_depth_step_that_converged():
+    """1 mm on a rigid base, 60 % compressed: Newton fails for large depth steps at depth. After
+    a failed (halved) increment the converged step is kept (doubled after easy increments)
+    instead of retrying the full step: 5 step cuts on this mesh instead of 12, and the force of
+    small uniform steps."""
+    sample = LayeredSample((Layer(1.0, NeoHooke(8.0, 0.45)),), RIGID)
+    curve = simulate(sample, SphericalIndenter(R), 0.6, 100, mesh="coarse")
+    assert 0 < curve.report.step_cuts <= 6
+    small_steps = simulate(sample, SphericalIndenter(R), np.linspace(0.01, 0.6, 60), mesh="coarse",
+                           solve_at_outputs=True)
+    assert small_steps.report.step_cuts == 0
+    # the same state to the Newton tolerance (RTOL 1e-5: forces within a few 1e-6)
+    assert curve.solved_force_mN[-1] == pytest.approx(small_steps.force_mN[-1], rel=2e-5)

@@ -11,11 +11,13 @@ tangent only when it goes on; close to the solution (relative residual below
 ``modified_below`` and falling tenfold per iteration) it keeps the last tangent and
 its factorisation (modified Newton). It shortens a step that overshoots the minimum
 of the potential along the Newton direction (a line search on its directional
-derivative), and halves the increment when Newton fails. When even small
-increments fail, :class:`ConvergenceError` says where and why. On the default
-mesh a 12-increment curve takes ~2.8 Newton iterations per increment, ~10 LU
-factorisations and ~25 solves by conjugate gradients preconditioned with an
-earlier factorisation (:class:`~.linear.TangentSolver`).
+derivative), and halves the increment when Newton fails (an elastic,
+frictionless body then keeps the depth step that converged for the next increments,
+see :data:`DEPTH_STEP_GROWTH`). When even small increments fail,
+:class:`ConvergenceError` says where and why. On the default mesh a 12-increment
+curve takes ~2.7 Newton iterations per increment, ~9 LU factorisations and ~24
+solves by conjugate gradients preconditioned with an earlier factorisation
+(:class:`~.linear.TangentSolver`).
 
 With friction or adhesion (never for the frictionless, non-adhesive contact), a
 reversal of the sphere (first unloading step) is predicted along the last increment
@@ -88,6 +90,17 @@ class _FrictionalTangentSolver(TangentSolver):
             self._lu = splu(K.tocsc(), permc_spec="COLAMD")
             x = self._lu.solve(b)
         return x
+
+
+#: Elastic, frictionless problems: after an increment fails (and is halved), later
+#: increments keep the depth step that converged, and the step grows by this factor
+#: after each increment that needed at most :data:`EASY_ITERATIONS` Newton iterations.
+#: Before, every increment after a cut tried the full remaining step again: on a 1 mm
+#: layer on a rigid base pressed to 0.6 mm (60 % compressed) one attempt in two failed
+#: (15 cuts in 27 increments); with the kept step, 3 cuts and -17 % time, the same forces
+#: (3e-8 relative). A curve that never fails is solved exactly as before.
+DEPTH_STEP_GROWTH = 2.0
+EASY_ITERATIONS = 3
 
 
 class ConvergenceError(RuntimeError):
@@ -430,11 +443,22 @@ class IndentationProblem:
         u = np.zeros(self.n_dofs)
         u_prev, h_prev, h_cur, t_cur = None, 0.0, 0.0, times[0]
         forces = np.empty(depths.size)
+        # elastic, frictionless: after a failed increment the depth step that converged is
+        # kept for the following increments (doubled after each easy one), instead of
+        # trying the full step again (see DEPTH_STEP_GROWTH)
+        adaptive = self.solid.path_independent and self._plain_contact
+        step = None
         for i, target in enumerate(depths):
             cuts = 0
             while True:
-                h_try = h_cur + (target - h_cur) / 2**cuts
-                t_try = t_cur + (times[i + 1] - t_cur) / 2**cuts
+                if adaptive and step is not None and abs(target - h_cur) > step * (1.0 + 1e-9):
+                    h_try = h_cur + math.copysign(step, target - h_cur)
+                    t_try = t_cur + (times[i + 1] - t_cur) * (h_try - h_cur) / (target - h_cur)
+                elif cuts and not adaptive:
+                    h_try = h_cur + (target - h_cur) / 2**cuts
+                    t_try = t_cur + (times[i + 1] - t_cur) / 2**cuts
+                else:  # exactly the target (h + (target - h) may differ from it in the last bit)
+                    h_try, t_try = target, times[i + 1]
                 if start and u_prev is None and h_cur == 0 and h_try > 0 and not np.any(u):
                     trial = hertz_start(self, h_try)
                 else:
@@ -452,12 +476,16 @@ class IndentationProblem:
                     if h_cur > 0:
                         pen = self.contact.state(u, h_cur).max_penetration_mm
                         report.max_penetration_ratio = max(report.max_penetration_ratio, pen / h_cur)
+                    if adaptive and step is not None and its <= EASY_ITERATIONS:
+                        step *= DEPTH_STEP_GROWTH
                     if h_try == target:
                         break
-                    cuts = max(cuts - 1, 0)
+                    cuts = 0 if adaptive else max(cuts - 1, 0)
                     continue
                 cuts += 1
                 report.step_cuts += 1
+                if adaptive:
+                    step = abs(h_try - h_cur) / 2.0
                 if cuts > self.max_cuts:
                     report.wall_time_s = time.perf_counter() - t0
                     raise ConvergenceError(
