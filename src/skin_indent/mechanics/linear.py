@@ -139,13 +139,15 @@ class TangentSolver:
         self._lu = symmetric_lu(K, self._ordering)
         self.factorisations += 1
 
-    def solve(self, K, b: np.ndarray, rtol: float | None = None) -> np.ndarray:
+    def solve(self, K, b: np.ndarray, rtol: float | None = None, refactorise: bool = False) -> np.ndarray:
         """Solution of ``K x = b``; raises ``RuntimeError`` if K is singular.
 
         ``rtol`` overrides the CG tolerance for this solve (an inexact Newton
         method needs only a loose solve while its own residual is large).
+        ``refactorise=True`` skips the preconditioned attempt: the caller knows the
+        stored factorisation is too far from ``K`` (e.g. many contact points changed).
         """
-        if self._lu is not None and not self._stale:
+        if self._lu is not None and not self._stale and not refactorise:
             M = LinearOperator(K.shape, matvec=self._apply_lu, dtype=float)
             before = self.preconditioner_applications
             if self.symmetric:
