@@ -87,6 +87,10 @@ def test_young_modulus_and_homogeneity(contact_sets):
     dE = curve.sensitivities[0, "E_kPa"]
     # (to the round-off of states converged to 2e-10: 1.0e-9 and 1.1e-9 on two increment paths)
     assert np.max(np.abs(dE * law.E_kPa - curve.force_mN)) < 3e-9 * np.max(curve.force_mN)
+    # direct solves converged to 3e-11: homogeneous to 4e-12
+    direct, _ = contact_sets(law, SPHERE, sensitivities=True, **DIRECT)
+    dE = direct.sensitivities[0, "E_kPa"]
+    assert np.max(np.abs(dE * law.E_kPa - direct.force_mN)) < 1e-10 * np.max(direct.force_mN)
     # F is linear in E: a plain central difference with a large step has no truncation error
     _check(contact_sets, lambda p: NeoHooke(p, NU), 10.0, (0, "E_kPa"), 1.0, SPLINE, order=2)
 
