@@ -142,3 +142,13 @@ def test_a_thin_layer_on_a_rigid_base_keeps_the_depth_step_that_converged():
     assert small_steps.report.step_cuts == 0
     # the same state to the Newton tolerance (RTOL 1e-5: forces within a few 1e-6)
     assert curve.solved_force_mN[-1] == pytest.approx(small_steps.force_mN[-1], rel=2e-5)
+
+
+def test_a_layer_thinner_than_the_depth_stops_with_a_convergence_error():
+    """0.6 mm into a 0.5 mm layer on a rigid base cannot be solved: the kept depth steps halve down to
+    1/2^max_cuts of a depth range and the solve stops with a clear error (no endless creeping)."""
+    from skin_indent.mechanics import ConvergenceError
+
+    sample = LayeredSample((Layer(0.5, NeoHooke(8.0, 0.45)),), RIGID)
+    with pytest.raises(ConvergenceError, match="did not converge at depth"):
+        simulate(sample, SphericalIndenter(R), 0.6, 20, mesh="coarse")
