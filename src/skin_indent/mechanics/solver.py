@@ -276,13 +276,12 @@ class IndentationProblem:
         """Contact quadrature points touching the sphere at ``u`` (frictionless contact), else None."""
         return self.contact.state(u, depth).pressure_kPa > 0 if self._plain_contact else None
 
-    def _contact_set_moved(self, u, depth) -> bool:
-        """Whether more than :data:`REFACTORISE_AFTER_CONTACT_CHANGES` contact points changed state
-        since the stored factorisation was computed (in this problem's Newton iterations)."""
+    def _contact_set_moved(self, active) -> bool:
+        """Whether more than :data:`REFACTORISE_AFTER_CONTACT_CHANGES` contact points (``active``: the
+        touching ones now) changed state since the stored factorisation was computed in Newton."""
         stored = self._factorised
-        if stored is None or stored[1] is None or stored[0] != self.linear_solver.factorisations:
+        if active is None or stored is None or stored[0] != self.linear_solver.factorisations:
             return False
-        active = self._active_points(u, depth)
         return int(np.count_nonzero(active != stored[1])) > REFACTORISE_AFTER_CONTACT_CHANGES
 
     def _directional(self, u, du, alpha, depth):
@@ -335,6 +334,7 @@ class IndentationProblem:
                 return True, it, rel, force
             if it == self.max_iterations or not np.isfinite(rel):
                 break
+            active = self._active_points(u, depth)
             fresh = False
             if K is not None and rel < self.modified_below and rel < 0.1 * rel_before:
                 # close to the solution and converging: keep the tangent of the last
@@ -343,7 +343,7 @@ class IndentationProblem:
             else:
                 K = self._tangent(u, depth)
                 report.tangents += 1
-                fresh = self._contact_set_moved(u, depth)
+                fresh = self._contact_set_moved(active)
             factorisations = self.linear_solver.factorisations
             try:
                 # inexact Newton: the linear residual need only be small next to Newton's own
@@ -351,7 +351,7 @@ class IndentationProblem:
             except RuntimeError:  # singular tangent
                 break
             if self.linear_solver.factorisations > factorisations:
-                self._factorised = (self.linear_solver.factorisations, self._active_points(u, depth))
+                self._factorised = (self.linear_solver.factorisations, active)
             du = np.zeros_like(u)
             du[free] = du_free
             g0 = float(r @ du_free)
@@ -471,9 +471,9 @@ class IndentationProblem:
         u = np.zeros(self.n_dofs)
         u_prev, h_prev, h_cur, t_cur = None, 0.0, 0.0, times[0]
         forces = np.empty(depths.size)
-        # elastic, frictionless: after a failed increment the halved depth step is kept for
-        # the rest of this target's range (doubled again after each easy increment) instead
-        # of trying the whole remaining step again (see EASY_ITERATIONS)
+        # elastic, frictionless: after a failed increment the halved depth step is kept
+        # (also toward the next depth) and doubled again only after an easy increment,
+        # instead of trying twice the last step (see EASY_ITERATIONS)
         adaptive = self.solid.path_independent and self._plain_contact
         kept = None  # the reduced depth step the last target ended with (mm), if any
         for i, target in enumerate(depths):
