@@ -211,6 +211,32 @@ def test_hertz_start_and_modified_newton_leave_the_solution_unchanged():
     assert np.isclose(u0[fast.axis_top_dof], -0.01) and np.all(u0[~fast.free] == 0)
 
 
+def test_surface_fit_puts_a_lifted_contact_zone_back_against_the_sphere():
+    """A prediction that lifts the contact zone off the sphere has it moved back to the converged
+    penetration scaled with the depth; the rest of the surface, the Dirichlet dofs, predictions that
+    keep the zone and unloading steps are left alone."""
+    prob = IndentationProblem(graded_mesh(R, 0.6, "coarse"), NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6)
+    _, u, _ = prob.solve([0.15, 0.3])
+    fit = prob._surface_fit
+    before = fit._penetration(u, 0.3)
+    touching = before > 0
+    assert 10 < touching.sum() < touching.size / 2
+    lifted = u.copy()
+    lifted[fit._uz] -= 0.05  # the sphere goes 0.03 mm deeper, the body 0.05 mm: every point lifts off
+    assert np.all(fit._penetration(lifted, 0.33) < 0)
+    fitted = fit(lifted.copy(), u, 0.3, 0.33)
+    after = fit._penetration(fitted, 0.33)
+    assert np.allclose(after[touching], 1.1 * before[touching], rtol=1e-9, atol=1e-12)
+    assert np.array_equal(fitted[fit._top_z][~touching], lifted[fit._top_z][~touching])
+    assert np.all(fitted[~prob.free] == 0)
+    changed = np.flatnonzero(fitted != lifted)
+    assert np.all(np.isin(changed, fit._uz))  # vertical corrections only
+    kept = u.copy()
+    kept[fit._uz] -= 0.03  # the body follows the sphere: the contact zone stays
+    assert np.array_equal(fit(kept.copy(), u, 0.3, 0.33), kept)
+    assert np.array_equal(fit(lifted.copy(), u, 0.3, 0.27), lifted)  # unloading
+
+
 @pytest.mark.parametrize("kw", [{}, {"interfaces_mm": (1.0,), "rigid_base_mm": 3.0}])
 def test_points_are_located_by_walking_from_nearby_triangles(kw):
     """The similarity predictor's point location: each scaled node is found in a triangle that

@@ -26,6 +26,8 @@ k-d tree (``scipy.spatial`` alone took 0.08 s of a 1 s process to import).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import sparse
 from skfem import Basis, ElementTriP2
@@ -194,3 +196,79 @@ def hertz_start(problem, depth_mm: float) -> np.ndarray:
     if not (np.isfinite(scale) and scale > 0):
         return np.zeros_like(u)
     return u * scale
+
+
+class SurfaceFit:
+    r"""Keep the contact zone of a predicted state against the sphere.
+
+    Under monotonic frictionless loading the contact zone only grows, but an
+    extrapolated first iterate (linear in depth, or the self-similar map on a body
+    that is not self-similar) can lift part of it off the sphere: on a 1 mm layer on
+    a rigid base, where the confined layer bulges around the sphere, the first
+    iterate touched the sphere at 16-94 of the 87-140 contact points of the converged
+    state. Newton's first step then sees no contact stiffness there, pushes the
+    bulge into the sphere, and line-searched steps of a few thousandths follow while
+    the contact zone is found again, 30-40 points per iteration (measured, default
+    mesh: 140 Newton iterations, 7 step cuts and 50 factorisations per curve; 63, 1
+    and 25 with this correction).
+
+    On a loading step from the converged state at depth :math:`h` to :math:`h' > h`,
+    each surface node inside the sphere at :math:`h` (vertical penetration
+    :math:`p_c > 0`) that the prediction puts outside it is moved up to the
+    penetration :math:`p_c h'/h`. The vertical corrections are carried into the body
+    with the decay :math:`\exp(Z / a)` below the surface (:math:`Z \le 0` the
+    reference depth, :math:`a = \sqrt{R h'}`), so the top elements are not distorted;
+    predictions that keep the contact zone are not changed (a homogeneous half-space
+    with the self-similar map). Penetrations are not clipped: a prediction pushed out
+    of the sphere where it penetrates too deep cost a nearly incompressible body
+    (nu = 0.499) 50 % more Newton iterations.
+
+    Parameters
+    ----------
+    solid : AxisymmetricSolid
+        The body (its vector P2 basis defines the dof layout; the surface is ``top``).
+    indenter : SphericalIndenter
+    free : ndarray of bool
+        Free dofs; the Dirichlet dofs are not corrected.
+    small_strain : bool
+        Linearised contact kinematics: the gap is measured at the reference radius.
+    """
+
+    def __init__(self, solid, indenter, free: np.ndarray, small_strain: bool = False):
+        b = solid.basis
+        top = b.get_dofs("top")
+        ur, uz = top.all("u^1"), top.all("u^2")
+        order = np.argsort(b.doflocs[0, ur])
+        self._top_r, self._top_z = ur[order], uz[order]
+        self._r0 = b.doflocs[0, self._top_r]
+        self._radius = indenter.radius_mm
+        self._small_strain = small_strain
+        uz = np.r_[b.nodal_dofs[1], b.facet_dofs[1]]
+        self._uz = uz[free[uz]]  # every free u_z dof
+        self._X = b.doflocs[:, self._uz]
+
+    def _penetration(self, u: np.ndarray, depth: float) -> np.ndarray:
+        """Vertical distance (mm) of each surface node inside the sphere at ``depth`` (< 0 outside)."""
+        R = self._radius
+        r = self._r0 if self._small_strain else self._r0 + u[self._top_r]
+        z_sphere = (R - depth) - np.sqrt(np.maximum(R**2 - r**2, 0.0))
+        return np.where(r < R, u[self._top_z] - z_sphere, -np.inf)
+
+    def __call__(self, trial: np.ndarray, u: np.ndarray, depth: float, new_depth: float) -> np.ndarray:
+        """Correct ``trial`` (the prediction at ``new_depth`` mm, modified in place) from the
+        converged state ``u`` at ``depth`` mm; returns ``trial``."""
+        if not 0 < depth < new_depth:
+            return trial
+        scale = new_depth / depth
+        before = np.maximum(self._penetration(u, depth), 0.0)
+        if not np.any(before > 0):
+            return trial
+        pen = self._penetration(trial, new_depth)
+        lifted = (before > 0) & np.isfinite(pen) & (pen < 0)
+        if not np.any(lifted):
+            return trial
+        delta = np.where(lifted, scale * before - pen, 0.0)
+        a = math.sqrt(self._radius * new_depth)
+        r, z = self._X
+        trial[self._uz] += np.interp(r, self._r0, delta, right=0.0) * np.exp(np.minimum(z, 0.0) / a)
+        return trial

@@ -6,7 +6,8 @@ the contact (:class:`~.contact.SphereContact`) and the boundary conditions, and
 first increment from the undeformed body starts from Hertz's shape
 (:func:`~.predictor.hertz_start`, frictionless contact), the others from the
 self-similar image of the previous states (geometric depths) or a linear
-extrapolation. Newton's method evaluates the residual first and the consistent
+extrapolation, with the contact zone of the last state kept against the sphere on
+loading steps (:class:`~.predictor.SurfaceFit`). Newton's method evaluates the residual first and the consistent
 tangent only when it goes on; close to the solution (relative residual below
 ``modified_below`` and falling tenfold per iteration) it keeps the last tangent and
 its factorisation (modified Newton). It shortens a step that overshoots the minimum
@@ -40,7 +41,7 @@ from .axisymmetric import AxisymmetricSolid, SparsityPattern
 from .contact import ContactLaw, SphereContact, SphericalIndenter
 from .linear import TangentSolver, symmetric_lu
 from .materials import Material
-from .predictor import SimilarityPredictor, hertz_start
+from .predictor import SimilarityPredictor, SurfaceFit, hertz_start
 from .mesh import IndentationMesh
 
 
@@ -246,6 +247,7 @@ class IndentationProblem:
         top_z = b.get_dofs("top").all("u^2")
         on_axis = top_z[np.isclose(b.doflocs[0, top_z], 0.0) & np.isclose(b.doflocs[1, top_z], 0.0)]
         self.axis_top_dof = int(on_axis[0]) if on_axis.size else None
+        self._surface_fit = SurfaceFit(self.solid, indenter, self.free, small_strain=self.solid.small_strain)
 
     @property
     def n_dofs(self) -> int:
@@ -404,6 +406,12 @@ class IndentationProblem:
 
     def _predict(self, u, u_prev, h_prev, h_cur, h_try, similarity):
         """First iterate at depth ``h_try`` from the converged states at ``h_cur`` and ``h_prev``."""
+        trial = self._extrapolate(u, u_prev, h_prev, h_cur, h_try, similarity)
+        if self._plain_contact:  # loading: the contact zone kept against the sphere (predictor.SurfaceFit)
+            trial = self._surface_fit(trial, u, h_cur, h_try)
+        return trial
+
+    def _extrapolate(self, u, u_prev, h_prev, h_cur, h_try, similarity):
         if similarity is not None and h_cur > 0 and np.isclose(h_try / h_cur, similarity.ratio, rtol=1e-9):
             geometric = u_prev is not None and h_prev > 0 and np.isclose(h_cur / h_prev, similarity.ratio, rtol=1e-9)
             return similarity(u, u_prev if geometric else None)
