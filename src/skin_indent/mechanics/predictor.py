@@ -19,6 +19,10 @@ The first increment has no earlier state: :func:`hertz_start` gives it the linea
 response of the undeformed body to Hertz's pressure shape, which puts the contact
 edge near its place (2-3 Newton iterations instead of 8-9 from a zero field).
 
+On loading steps, :class:`SurfaceFit` then keeps the contact zone of the last converged
+state against the sphere where an extrapolation lifts it off (a layer confined by a
+rigid base, whose bulge the extrapolation carries into the sphere).
+
 The interpolation matrix of ``S`` locates each scaled node by walking from its own
 triangle towards the origin (:func:`locate`): a few triangles on a graded mesh, and no
 k-d tree (``scipy.spatial`` alone took 0.08 s of a 1 s process to import).

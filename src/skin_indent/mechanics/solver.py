@@ -7,10 +7,11 @@ first increment from the undeformed body starts from Hertz's shape
 (:func:`~.predictor.hertz_start`, frictionless contact), the others from the
 self-similar image of the previous states (geometric depths) or a linear
 extrapolation, with the contact zone of the last state kept against the sphere on
-loading steps (:class:`~.predictor.SurfaceFit`). Newton's method evaluates the residual first and the consistent
-tangent only when it goes on; close to the solution (relative residual below
-``modified_below`` and falling tenfold per iteration) it keeps the last tangent and
-its factorisation (modified Newton). It shortens a step that overshoots the minimum
+loading steps (:class:`~.predictor.SurfaceFit`). Newton's method evaluates the
+residual first and the consistent tangent only when it goes on; close to the
+solution (relative residual below ``modified_below`` and falling tenfold per
+iteration) it keeps the last tangent and its factorisation (modified Newton). It
+shortens a step that overshoots the minimum
 of the potential along the Newton direction (a line search on its directional
 derivative), and halves the increment when Newton fails (an elastic,
 frictionless body then keeps the depth step that converged for the next increments,
