@@ -125,6 +125,12 @@ class SphericalIndenter:
         if not (isinstance(r, (int, float, np.floating)) and np.isfinite(r) and r > 0):
             raise ValueError(f"sphere radius must be a finite number > 0 mm, got {r!r}")
 
+    def surface_z(self, r_mm, depth_mm: float):
+        """Height (mm) of the sphere's lower surface at radius ``r_mm`` (mm, ``<= R``) when its tip
+        is ``depth_mm`` below the undeformed surface ``z = 0``: ``R - h - sqrt(R^2 - r^2)``."""
+        R = self.radius_mm
+        return (R - depth_mm) - np.sqrt(np.maximum(R**2 - r_mm**2, 0.0))
+
 
 @dataclass(frozen=True)
 class ContactLaw:
@@ -325,7 +331,7 @@ class SphereContact:
         for c in (0, 1) if not self.small_strain else (1,):
             x[c] += np.einsum("keq,ke->eq", self.N[self.comp == c], ue[self.comp == c])
         if self.small_strain:
-            z_sphere = (R - depth) - np.sqrt(np.maximum(R**2 - x[0] ** 2, 0.0))
+            z_sphere = self.indenter.surface_z(x[0], depth)
             n = np.zeros_like(x)
             n[1] = -1.0
             return n, np.full(x.shape[1:], np.inf), z_sphere - x[1]

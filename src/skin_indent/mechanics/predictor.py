@@ -192,9 +192,8 @@ def hertz_start(problem, depth_mm: float) -> np.ndarray:
         return u * (-depth_mm / u[tip]) if np.isfinite(u[tip]) and u[tip] < 0 else np.zeros_like(u)
     # u_z at the facet quadrature points, and the sphere's surface there
     uz = np.einsum("keq,ke->eq", contact.N[vertical], u[contact.element_dofs[vertical]])
-    R = problem.indenter.radius_mm
     inside = r < a
-    z_sphere = (R - depth_mm) - np.sqrt(np.maximum(R**2 - r[inside] ** 2, 0.0))
+    z_sphere = problem.indenter.surface_z(r[inside], depth_mm)
     w = contact.dA[inside] * uz[inside]
     scale = float(np.sum(w * z_sphere) / np.sum(w * uz[inside])) if np.any(inside) else np.nan
     if not (np.isfinite(scale) and scale > 0):
@@ -245,7 +244,7 @@ class SurfaceFit:
         order = np.argsort(b.doflocs[0, ur])
         self._top_r, self._top_z = ur[order], uz[order]
         self._r0 = b.doflocs[0, self._top_r]
-        self._radius = indenter.radius_mm
+        self._indenter = indenter
         self._small_strain = small_strain
         uz = np.r_[b.nodal_dofs[1], b.facet_dofs[1]]
         self._uz = uz[free[uz]]  # every free u_z dof
@@ -253,10 +252,8 @@ class SurfaceFit:
 
     def _penetration(self, u: np.ndarray, depth: float) -> np.ndarray:
         """Vertical distance (mm) of each surface node inside the sphere at ``depth`` (< 0 outside)."""
-        R = self._radius
         r = self._r0 if self._small_strain else self._r0 + u[self._top_r]
-        z_sphere = (R - depth) - np.sqrt(np.maximum(R**2 - r**2, 0.0))
-        return np.where(r < R, u[self._top_z] - z_sphere, -np.inf)
+        return np.where(r < self._indenter.radius_mm, u[self._top_z] - self._indenter.surface_z(r, depth), -np.inf)
 
     def __call__(self, trial: np.ndarray, u: np.ndarray, depth: float, new_depth: float) -> np.ndarray:
         """Correct ``trial`` (the prediction at ``new_depth`` mm, modified in place) from the
@@ -272,7 +269,7 @@ class SurfaceFit:
         if not np.any(lifted):
             return trial
         delta = np.where(lifted, scale * before - pen, 0.0)
-        a = math.sqrt(self._radius * new_depth)
+        a = math.sqrt(self._indenter.radius_mm * new_depth)
         r, z = self._X
         trial[self._uz] += np.interp(r, self._r0, delta, right=0.0) * np.exp(np.minimum(z, 0.0) / a)
         return trial
