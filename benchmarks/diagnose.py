@@ -78,7 +78,7 @@ FE_FIT = r"""
 import json, sys, time
 from skin_indent.context import Context
 from skin_indent.data import bundled_path
-from skin_indent.diagnosis.fits import Fitter
+from skin_indent.fitting.multistart import Fitter
 from skin_indent.measurement import load_csv, prepare
 d = prepare(load_csv(bundled_path("forearm_like.csv")), segments=("approach",))
 f = Fitter(d, d.high_frequency_noise_mN(), noise_known=False, context=Context(cache_dir=sys.argv[1], workers=2),

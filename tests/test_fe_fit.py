@@ -190,7 +190,7 @@ def test_fits_in_the_loop_run_side_by_side():
     import time
     from types import SimpleNamespace
 
-    from skin_indent.diagnosis.fits import Fitter
+    from skin_indent.fitting.multistart import Fitter
 
     class Core:
         def __init__(self):
@@ -289,7 +289,7 @@ def test_a_second_layer_starts_above_and_below_the_fitted_one():
     per body, none the one-layer body (a layer under a rigid base changes nothing)."""
     from types import SimpleNamespace
 
-    from skin_indent.diagnosis.fits import Fitter
+    from skin_indent.fitting.multistart import Fitter
     from skin_indent.effects import effect
     from skin_indent.measurement import measurement_from_arrays, prepare
 
@@ -319,7 +319,7 @@ def test_a_second_layer_starts_above_and_below_the_fitted_one():
 
 def test_starts_are_ranked_by_what_they_add_to_the_simpler_model():
     """The screen's ranking: the misfit left by a b F_start + a F_nested (a, b >= 0)."""
-    from skin_indent.diagnosis.fits import _blended
+    from skin_indent.fitting.multistart import _blended
 
     h = np.linspace(0.01, 0.6, 50)
     w = np.ones_like(h)
@@ -334,7 +334,7 @@ def test_starts_are_ranked_by_what_they_add_to_the_simpler_model():
 def test_fe_fit_recovers_layer_and_stiffening():
     """A layer with strain stiffening (no surface combines them): the fit with the finite-element model in
     the loop, warm-started near the truth, recovers the parameters within 3 standard deviations."""
-    from skin_indent.diagnosis.fits import Fitter
+    from skin_indent.fitting.multistart import Fitter
     from skin_indent.measurement import measurement_from_arrays, prepare
     from skin_indent.protocol import Protocol
 

@@ -38,7 +38,7 @@ def _shifted(theta, depth_mm, sigma, seed, *, shift_mm=0.02, rate=0.02):
 
 
 def _fitter(data, sigma):
-    from skin_indent.diagnosis.fits import Fitter
+    from skin_indent.fitting.multistart import Fitter
 
     return Fitter(data, sigma, noise_known=True, context=None, mesh="coarse")
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from skin_indent.diagnosis.residuals import analyse_residuals, describe_structure, effective_sample_size, sentence
+from skin_indent.inverse.residuals import analyse_residuals, describe_structure, effective_sample_size, sentence
 
 
 def test_white_noise_is_called_white_at_the_nominal_rate():

@@ -11,9 +11,9 @@ The curve is prepared by :func:`skin_indent.measurement.prepare` (as for fits), 
 candidate effects are the registered ones (:mod:`skin_indent.effects`).
 """
 
-from .fits import MODEL_ERROR, Rung
+from ..fitting.multistart import MODEL_ERROR, Rung
 from .report import write_report
-from .residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
+from ..inverse.residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
 from .workflow import Diagnosis, diagnose
 
 __all__ = ["MODEL_ERROR", "Diagnosis", "ResidualAnalysis", "Rung", "analyse_residuals", "describe_structure",

@@ -46,9 +46,9 @@ import numpy as np
 from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, Measurement, PreparedCurve, prepare
 from .evidence import suggest_measurement
-from .fits import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung
+from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, at_physical_limit, suggestion
-from .residuals import effective_sample_size
+from ..inverse.residuals import effective_sample_size
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
 MAX_POINTS = 400

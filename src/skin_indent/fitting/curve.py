@@ -173,7 +173,7 @@ def _e_star(result) -> tuple[float, float]:
 
 def quality(prepared, residual_mN, n_free: int) -> dict:
     """The fit's misfit against a noise level independent of the model, and its whiteness."""
-    from ..diagnosis.residuals import analyse_residuals
+    from ..inverse.residuals import analyse_residuals
 
     try:
         noise, source = prepared.noise_mN()

@@ -44,7 +44,7 @@ On the forearm-like curve (100 loading points, two layers, 6 parameters, coarse 
 cores; benchmarks/diagnose.py ``--ladder``, one quiet machine) one fit took 166 s and 98 runs
 before these two measures, 57 s and 80 runs after them (to the same optimum, RMS 0.0531 mN, a
 rigid base under the second layer), and 87 s and 50 runs once the screen ranked every start at
-its best modulus (:meth:`~skin_indent.diagnosis.fits.Fitter`): a better optimum, RMS 0.0510
+its best modulus (:meth:`~skin_indent.fitting.multistart.Fitter`): a better optimum, RMS 0.0510
 mN, with the muscle a half-space as in the truth, whose deep interface makes each run 3-5x dearer.
 """
 
@@ -304,7 +304,7 @@ class FECore:
     def in_workers(self):
         """Within the block every run goes to the worker processes, a single one too, and this
         process only waits for it: fits of several cores, each in a thread of this process
-        (:meth:`~skin_indent.diagnosis.fits.Fitter.fit_all`), then share the cores."""
+        (:meth:`~skin_indent.fitting.multistart.Fitter.fit_all`), then share the cores."""
         self._in_workers = True
         try:
             yield self

@@ -1,4 +1,4 @@
-"""The fits of one diagnosis: each set of effects fitted once, as a :class:`Rung`."""
+"""The multistart fitter of any model (the half-space with any effects): each set of effects fitted once, as a :class:`Rung`."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 
 from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, instances, numbered
 from ..inverse import IdentificationResult
-from .residuals import analyse_residuals, describe_structure
+from ..inverse.residuals import analyse_residuals, describe_structure
 
 #: relative accuracy of the forward model (FE + surface), added to the noise in quadrature
 MODEL_ERROR = 0.003
@@ -136,7 +136,7 @@ class Fitter:
     """
 
     def __init__(self, data, noise_mN: float, *, noise_known: bool, context, mesh: str, in_loop: bool = True):
-        from ..fitting import hertz_modulus
+        from .identification import hertz_modulus
 
         self.data = data
         self.radius_mm = data.radius_mm
@@ -166,7 +166,7 @@ class Fitter:
         A response surface for none or one elastic effect; the finite-element model in
         the loop for more (two layers, layer and stiffening...).
         """
-        from ..fitting import elastic_core
+        from .surfaces import elastic_core
 
         key = tuple(e.name for e in instances(effects) if e.stage == ELASTIC)
         if len(key) > 1 and not self.in_loop:
