@@ -94,6 +94,11 @@ class BatchRow:
     surface : str
         Hash of the response surface used (the one of the unit-radius surface for a
         rescaled one).
+    model : str
+        The model fitted (``neo-hooke``, or with ``+effect`` per effect).
+    parameters, std : dict
+        Every parameter of the model and its standard deviation (held ones without); the
+        table gets a column ``NAME`` and ``NAME_sd`` for each beyond E_kPa and nu.
     fit : CurveFit or None
         The whole fit, kept only when asked for (``fit_many(..., keep_fits=True)``).
     """
@@ -124,6 +129,9 @@ class BatchRow:
     flags: tuple = ()
     error: str = ""
     surface: str = ""
+    model: str = "neo-hooke"
+    parameters: dict = field(default_factory=dict, compare=False)
+    std: dict = field(default_factory=dict, compare=False)
     fit: object = field(default=None, repr=False, compare=False)
 
     @property
@@ -151,11 +159,13 @@ class BatchRow:
 
         out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "fit"}
         out["flags"] = list(self.flags)
+        out["parameters"], out["std"] = dict(self.parameters), dict(self.std)
         return jsonable(out)
 
 
-#: the columns of :func:`write_tsv`, in order
-TSV_COLUMNS = tuple(f.name for f in fields(BatchRow) if f.name != "fit")
+#: the columns of :func:`write_tsv`, in order (then ``NAME``, ``NAME_sd`` for each parameter of the
+#: models beyond E_kPa and nu)
+TSV_COLUMNS = tuple(f.name for f in fields(BatchRow) if f.name not in ("fit", "parameters", "std"))
 
 
 class BatchResult(list):
@@ -272,11 +282,13 @@ def _surface_hash(surface) -> str:
     return str(origin["hash"]) if origin and "hash" in origin else str(getattr(surface, "hash", ""))
 
 
-def _fit_task(prepared, surface, method, fixed, tol, x0=None):
+def _fit_task(prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, context=None, mesh=None):
     """One fit in a worker: ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
     from .fitting import fit
 
     try:
+        if model is not None:
+            return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh), None
         return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0), None
     except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
         return None, _one_line(err)
@@ -294,7 +306,8 @@ def _row_of(base: dict, result, surface) -> BatchRow:
         rms_mN=result.rms_mN, noise_mN=q.get("noise_mN", math.nan), misfit=q.get("misfit", math.nan),
         white=q.get("white"), verdict=q.get("verdict", ""),
         flags=tuple(result.flags) + (() if result.success else (f"not converged: {result.message}",)),
-        surface=_surface_hash(surface))
+        surface=_surface_hash(surface) if surface is not None else "", model=result.model,
+        parameters=dict(result.parameters), std=dict(result.std))
 
 
 def _plot_name(row: BatchRow) -> str:
@@ -304,9 +317,9 @@ def _plot_name(row: BatchRow) -> str:
 
 # ------------------------------------------------------------------ fit_many
 def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None, window=None,
-             contact: str = "auto", fixed: dict | None = None, method: str = "lsq", mesh: str = "medium",
+             contact: str = "auto", fixed: dict | None = None, method: str = "lsq", mesh: str | None = None,
              context=None, progress: bool = True, surface=None, tol: float | None = None, x0=None,
-             keep_fits: bool = False, plot_dir=None, command=None) -> BatchResult:
+             keep_fits: bool = False, plot_dir=None, command=None, model=None, priors=None) -> BatchResult:
     """Fit every curve of every file, in parallel; one :class:`BatchRow` per curve.
 
     Parameters
@@ -329,8 +342,9 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         Parameters held fixed: ``E_kPa``, ``nu``, ``offset_mm`` (the contact point,
         recorded depth in mm; ``contact_point_mm`` is taken as the same).
     method : {"lsq", "ekf", "ekf-paper"}
-    mesh : str
-        Mesh preset of surfaces that have to be built (``"coarse"``, ``"medium"``, ``"fine"``).
+    mesh : str, optional
+        Mesh preset of surfaces that have to be built (``"coarse"``, ``"medium"``, ``"fine"``;
+        default ``"medium"``, with a ``model`` ``"coarse"`` as the diagnosis).
     context : Context, optional
         Surface cache, and where the fits run: ``workers`` local processes (default: the
         available cores, at most one per curve; 1 runs here), or the Dask ``client`` or
@@ -353,6 +367,12 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         into this folder, each with its provenance.
     command : sequence of str, optional
         Command line to record (default ``sys.argv``).
+    model : str, optional
+        Fit this model to every curve (``"neo-hooke+layer"``: :func:`skin_indent.fitting.fit`
+        with ``model=``; every segment, least squares, ``fixed`` by any parameter name the
+        model reports); ``window``, ``contact``, ``surface``, ``x0`` and ``tol`` then do not apply.
+    priors : dict, optional
+        ``{name: (mean, sd)}`` Gaussian priors of every fit (implies the model path).
 
     Returns
     -------
@@ -376,6 +396,16 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         fixed["offset_mm"] = fixed.pop("contact_point_mm")
     ctx = context_of(context)
     files = expand_paths(paths)
+    if model is not None or priors:
+        given = [k for k, v in (("window", window), ("contact", None if contact == "auto" else contact),
+                                ("surface", surface), ("x0", x0), ("tol", tol),
+                                ("method", None if method == "lsq" else method)) if v is not None]
+        if given:
+            raise ValueError(f"a fit of a chosen model prepares each curve as the diagnosis does (least squares): "
+                             f"{', '.join(given)} not taken")
+        return _fit_many_model(files, model or "neo-hooke", priors, index=index, radius_mm=radius_mm, fixed=fixed,
+                               mesh=mesh, ctx=ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir,
+                               command=command)
     rows: list = []  # BatchRow, or (base, prepared) waiting for its fit
     for path in files:
         try:
@@ -395,6 +425,7 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
                 continue
             rows.append((base, prepared))
 
+    mesh = "medium" if mesh is None else mesh
     # the surfaces, once each, here
     pending = [i for i, r in enumerate(rows) if isinstance(r, tuple)]
     groups: dict = {}
@@ -450,6 +481,66 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
             bar.close()
             executor.close()
     return BatchResult(rows, provenance=prov, surfaces=surfaces)
+
+
+def _fit_many_model(files, model, priors, *, index, radius_mm, fixed, mesh, ctx, progress, keep_fits, plot_dir,
+                    command) -> BatchResult:
+    """:func:`fit_many` of a chosen model: each curve prepared as the diagnosis prepares it and fitted
+    with :func:`skin_indent.fitting.fit` (``model=``) in a worker, whose surfaces go to the shared cache."""
+    from .context import Context
+    from .fitting.model_fit import MAX_POINTS, parse_model
+    from .measurement import SEGMENTS, load_curve, load_curves, prepare
+    from .provenance import provenance as make_provenance
+    from .response_surface._executors import make_executor
+
+    parse_model(model)  # one line for a bad model, before any file is read
+    mesh = "coarse" if mesh is None else mesh
+    rows: list = []
+    for path in files:
+        try:
+            curves = (load_curves(path, radius_mm=radius_mm) if index is None
+                      else [load_curve(path, radius_mm=radius_mm, index=index)])
+        except Exception as err:  # noqa: BLE001 - a bad file is one row
+            rows.append(BatchRow(file=os.fspath(path), index=index, model=model, error=_one_line(err)))
+            continue
+        for i, m in enumerate(curves):
+            k = m.columns.get("reader", {}).get("index", i if index is None else index)
+            base = {"file": os.fspath(path), "index": k, **_map_position(m)}
+            try:
+                prepared = prepare(m, segments=SEGMENTS, radius_mm=radius_mm, max_points=MAX_POINTS)
+            except Exception as err:  # noqa: BLE001
+                rows.append(BatchRow(**base, model=model, error=_one_line(err)))
+                continue
+            rows.append((base, prepared))
+    pending = [i for i, r in enumerate(rows) if isinstance(r, tuple)]
+    radii = sorted({rows[i][1].radius_mm for i in pending})
+    settings = {"model": model, "radius_mm": radius_mm, "radii_mm": radii, "index": index, "fixed": fixed,
+                "priors": {k: list(v) for k, v in (priors or {}).items()}, "method": "lsq", "mesh": mesh}
+    prov = make_provenance(command=command, inputs=files, settings=settings)
+    # each worker fits on one core; their surfaces and runs are shared through the cache
+    inner = Context(cache_dir=ctx.cache_dir, workers=1, progress=False)
+    tasks = [(i, (rows[i][1], None, "lsq", fixed, None, None, model, priors, inner, mesh)) for i in pending]
+    if tasks:
+        from tqdm.auto import tqdm
+
+        executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
+        bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress or len(tasks) < 2)
+        try:
+            for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
+                base, prepared = rows[i]
+                result, message = value if err is None else (None, _one_line(err))
+                if result is None:
+                    rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, model=model, error=message)
+                else:
+                    row = _row_of(base, result, None)
+                    if plot_dir is not None:
+                        row = _write_plots(row, result, plot_dir, prov)
+                    rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})
+                bar.update(1)
+        finally:
+            bar.close()
+            executor.close()
+    return BatchResult(rows, provenance=prov)
 
 
 def _fields(row: BatchRow) -> dict:

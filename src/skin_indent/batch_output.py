@@ -48,7 +48,9 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
 
     Notes
     -----
-    Columns :data:`skin_indent.batch.TSV_COLUMNS`: units in the names (mm, mN, kPa); empty cells for
+    Columns :data:`skin_indent.batch.TSV_COLUMNS`, then ``NAME`` and ``NAME_sd`` for each parameter of
+    the fitted models beyond E_kPa, nu and the contact point (``thickness_mm``, ``ratio``...): units in
+    the names (mm, mN, kPa); empty cells for
     missing values, ``nan`` for numbers not computed; ``flags`` joined by ``" | "``.
     ``#`` lines come first (:func:`skin_indent.provenance.provenance_comment_lines`;
     read them back with :func:`skin_indent.provenance.read_provenance`), so
@@ -60,8 +62,14 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
 
     prov = provenance if provenance is not None else getattr(rows, "provenance", None)
     lines = provenance_comment_lines(prov) if prov else []
-    lines.append("\t".join(TSV_COLUMNS))
-    lines.extend("\t".join(_cell(getattr(r, c)) for c in TSV_COLUMNS) for r in rows)
+    extra = list(dict.fromkeys(k for r in rows for k in getattr(r, "parameters", {}) if k not in ("E_kPa", "nu", "offset_mm")))
+    lines.append("\t".join([*TSV_COLUMNS, *(c for k in extra for c in (k, f"{k}_sd"))]))
+    for r in rows:
+        cells = [_cell(getattr(r, c)) for c in TSV_COLUMNS]
+        for k in extra:
+            cells += [_cell(r.parameters.get(k, math.nan)), _cell(r.std.get(k, math.nan) if k in r.parameters else
+                                                                   math.nan)]
+        lines.append("\t".join(cells))
     text = "\n".join(lines) + "\n"
     return atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
 

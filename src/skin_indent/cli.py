@@ -206,23 +206,46 @@ FIX_ALIASES = {"E_kPa": "E_kPa", "E": "E_kPa", "nu": "nu", "contact_point_mm": "
                "offset_mm": "offset_mm"}
 
 
-def _parse_fix(items) -> dict[str, float]:
-    """``["nu=0.499", "E_kPa=3"]`` -> ``{"nu": 0.499, "E_kPa": 3.0}`` (model names), one-line errors."""
+def _parse_fix(items, any_name: bool = False) -> dict[str, float]:
+    """``["nu=0.499", "E_kPa=3"]`` -> ``{"nu": 0.499, "E_kPa": 3.0}`` (model names), one-line errors.
+
+    ``any_name``: a chosen model's parameters by the names results report (``thickness_mm``,
+    ``ratio``, which may be ``inf``: a rigid base), checked against the model when it is fitted.
+    """
     import math
 
     out: dict[str, float] = {}
     for item in items or ():
         name, sep, value = str(item).partition("=")
         name = name.strip()
-        if not sep or name not in FIX_ALIASES:
-            raise CLIError(f"--fix must be NAME=VALUE with NAME one of {', '.join(FIX_ALIASES)}, got {item!r}")
+        if not sep or not name or (not any_name and name not in FIX_ALIASES):
+            names = "a parameter of the model" if any_name else f"one of {', '.join(FIX_ALIASES)} (more with --model)"
+            raise CLIError(f"--fix must be NAME=VALUE with NAME {names}, got {item!r}")
         try:
             number = float(value)
         except ValueError:
             raise CLIError(f"--fix {name}: {value!r} is not a number") from None
-        if not math.isfinite(number):
+        if math.isnan(number) or (math.isinf(number) and not (any_name and number > 0)):
             raise CLIError(f"--fix {name}: the value must be finite, got {value!r}")
-        out[FIX_ALIASES[name]] = number
+        out[FIX_ALIASES.get(name, name)] = number
+    return out
+
+
+def _parse_priors(items) -> dict[str, tuple[float, float]]:
+    """``["thickness_mm=1.2:0.1"]`` -> ``{"thickness_mm": (1.2, 0.1)}``, one-line errors."""
+    import math
+
+    out: dict[str, tuple[float, float]] = {}
+    for item in items or ():
+        name, sep, value = str(item).partition("=")
+        name = name.strip()
+        try:
+            mean, sd = (float(x) for x in value.split(":"))
+        except ValueError:
+            raise CLIError(f"--prior must be NAME=MEAN:SD (e.g. thickness_mm=1.2:0.1), got {item!r}") from None
+        if not sep or not name or not (math.isfinite(mean) and math.isfinite(sd) and sd > 0):
+            raise CLIError(f"--prior must be NAME=MEAN:SD with a finite mean and SD > 0, got {item!r}")
+        out[FIX_ALIASES.get(name, name)] = (mean, sd)
     return out
 
 
@@ -241,8 +264,9 @@ def _add_fit(sub):
     p.add_argument("--index", type=int, default=None, help="fit only curve N (from 0) of each file")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="write a PNG and a CSV (depth, force, model, residual) per curve, and summary.png, into DIR")
-    p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="medium",
-                   help="mesh of the finite-element runs behind a built surface (default medium)")
+    p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default=None,
+                   help="mesh of the finite-element runs behind a built surface (default medium; with --model or "
+                        "--prior coarse, as diagnose)")
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="fit on this Dask scheduler")
     p.add_argument("--method", choices=("ekf-paper", "ekf", "lsq"), default="lsq",
@@ -255,9 +279,20 @@ def _add_fit(sub):
     p.add_argument("--radius", type=float, default=None,
                    help="sphere radius, mm (default: the file's, else the skin sphere 6.22; AFM: e.g. 0.0275)")
     p.add_argument("--start", default=None, help="start values E,nu (default: a Hertz estimate at nu = 0.4)")
+    p.add_argument("--model", default=None, metavar="neo-hooke[+EFFECT...]",
+                   help="fit this model, e.g. neo-hooke+layer+layer (two bonded layers) or neo-hooke+stiffening: "
+                        "every segment, the diagnosis's fit (response surfaces, or finite elements in the loop where "
+                        "none covers the model), least squares; default: the paper's neo-Hookean half-space on the "
+                        "loading segment")
     p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                    help="hold a parameter fixed (repeatable): E_kPa, nu or contact_point_mm, e.g. --fix nu=0.5 "
-                        "(the incompressible limit of the compressible FE law)")
+                        "(the incompressible limit of the compressible FE law); with --model any parameter the "
+                        "results report, e.g. --fix thickness_mm=1.2 (the top layer) or --fix ratio=inf")
+    p.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
+                   help="a Gaussian prior from an independent measurement (repeatable), e.g. --prior "
+                        "thickness_mm=1.2:0.1 (ultrasound); implies the model path (--model, default neo-hooke)")
+    p.add_argument("--noise", type=float, default=None,
+                   help="noise standard deviation of a raw sample, mN (default: from the data)")
     p.add_argument("--contact", choices=("auto", "fit", "origin"), default="auto",
                    help="contact point: auto (fitted if the curve has a pre-contact baseline, else recorded depth "
                         "0; default), fit (always fitted), origin (recorded depth 0)")
@@ -283,9 +318,13 @@ def _positive_radius(radius):
         raise CLIError(f"--radius must be a positive number of mm, got {radius:g}")
 
 
-def _fit_settings(args, fixed, window) -> dict:
-    return {"radius_mm": args.radius, "window_mm": window, "method": args.method, "mesh": args.mesh,
-            "fixed": fixed, "contact": args.contact, "index": args.index}
+def _fit_settings(args, fixed, window, priors=None) -> dict:
+    out = {"radius_mm": args.radius, "window_mm": window, "method": args.method, "mesh": args.mesh,
+           "fixed": fixed, "contact": args.contact, "index": args.index}
+    if args.model is not None or priors:
+        out.update(model=args.model or "neo-hooke", priors={k: list(v) for k, v in (priors or {}).items()},
+                   noise_mN=args.noise)
+    return out
 
 
 def _run_fit(args) -> int:
@@ -295,7 +334,25 @@ def _run_fit(args) -> int:
     _positive_radius(args.radius)
     if args.workers is not None and args.scheduler is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
-    fixed = _parse_fix(args.fix)
+    priors = _parse_priors(args.prior)
+    chosen = args.model is not None or bool(priors)
+    fixed = _parse_fix(args.fix, any_name=chosen)
+    if chosen:
+        from .fitting.model_fit import parse_model
+
+        parse_model(args.model or "neo-hooke")  # one line for a bad model before any file is read
+        given = [o for o, v in (("--window", args.window), ("--start", args.start), ("--surface", args.surface),
+                                ("--tol", args.tol), ("--contact", None if args.contact == "auto" else args.contact))
+                 if v is not None]
+        if given:
+            raise CLIError(f"{', '.join(given)}: not taken with --model/--prior (each curve is prepared as "
+                           "diagnose prepares it: every segment, the contact point as a parameter where the curve "
+                           "starts before contact)")
+        if args.method != "lsq" and (parse_model(args.model or "neo-hooke") or priors):
+            raise CLIError(f"--method {args.method} fits the neo-Hookean half-space on a response surface; "
+                           f"{'--model ' + args.model if args.model else '--prior'} needs least squares "
+                           "(--method lsq)")
+    args.priors = priors
     window = _parse_window(args.window) if args.window else None
     x0 = _parse_start(args.start) if args.start else None
     surface = None
@@ -318,18 +375,29 @@ def _run_fit(args) -> int:
 
 def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     """One curve: the report (or JSON), errors as one line (exit 2), flags as warnings."""
-    from ._json import dumps
     from .fitting import fit
-    from .measurement import prepare
-    from .provenance import provenance, with_provenance
+    from .measurement import SEGMENTS, prepare
+    from .provenance import provenance
 
-    prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
+    chosen = args.model is not None or bool(args.priors)
+    if chosen:
+        from .fitting.model_fit import MAX_POINTS
+
+        prepared = prepare(measurement, segments=SEGMENTS, radius_mm=args.radius, max_points=MAX_POINTS)
+    else:
+        prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
     path = args.data[0]
     if not args.json:
         data = prepared.data
-        print(f"data: {path} ({data.n_points} loading points from {data.depth_mm[0]:.4g} to "
-              f"{data.depth_mm[-1]:.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})",
-              flush=True)
+        what = "points" if chosen else "loading points"
+        print(f"data: {path} ({data.n_points} {what} from {data.depth_mm[0]:.4g} to "
+              f"{data.depth_mm[-1]:.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})"
+              + (f"; model {args.model or 'neo-hooke'}" if chosen else ""), flush=True)
+    if chosen:
+        result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
+                     noise_mN=args.noise, context=context, mesh=args.mesh)
+        return _fit_output(args, path, result, provenance(inputs=[path], settings=_fit_settings(args, fixed, window,
+                                                                                              args.priors)))
     if surface is not None:
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:
@@ -338,8 +406,17 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
             except ValueError:
                 raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for "
                                f"{prepared.radius_mm:g} mm") from None
-    result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, context=context, mesh=args.mesh)
+    result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
+                 context=context, mesh=args.mesh)
     prov = provenance(inputs=[path], settings=_fit_settings(args, fixed, window), surface=result.surface)
+    return _fit_output(args, path, result, prov)
+
+
+def _fit_output(args, path, result, prov) -> int:
+    """Write the plots, print the report or JSON and the flags; the exit status."""
+    from ._json import dumps
+    from .provenance import with_provenance
+
     if args.plot is not None:
         from .fit_plot import plot_fit, write_fit_csv
 
@@ -364,9 +441,14 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     from ._json import dumps
     from .batch import fit_many, summary_figure, write_tsv
 
-    rows = fit_many(args.data, index=args.index, radius_mm=args.radius, window=window, contact=args.contact,
-                    fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=not args.json,
-                    surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot)
+    if args.model is not None or args.priors:
+        rows = fit_many(args.data, index=args.index, radius_mm=args.radius, fixed=fixed, mesh=args.mesh,
+                        context=context, progress=not args.json, plot_dir=args.plot, model=args.model or "neo-hooke",
+                        priors=args.priors)
+    else:
+        rows = fit_many(args.data, index=args.index, radius_mm=args.radius, window=window, contact=args.contact,
+                        fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=not args.json,
+                        surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot)
     if args.out is not None:
         write_tsv(rows, args.out)
     if args.plot is not None and rows:
@@ -375,8 +457,9 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
         print(dumps({"rows": [r.to_dict() for r in rows], "provenance": rows.provenance}))
     else:
         for r in rows:
+            extra = "".join(f", {k} = {v:.4g}" for k, v in r.parameters.items() if k not in ("E_kPa", "nu", "offset_mm"))
             print(f"{r.label}: error: {r.error}" if r.error else
-                  f"{r.label}: E = {r.E_kPa:.5g} kPa, E* = {r.E_star_kPa:.5g} kPa, nu = {r.nu:.3g}, contact "
+                  f"{r.label}: E = {r.E_kPa:.5g} kPa, E* = {r.E_star_kPa:.5g} kPa, nu = {r.nu:.3g}{extra}, contact "
                   f"{r.contact_point_mm:.6g} mm, misfit {r.misfit:.2g} x noise: {r.verdict}"
                   + (f" [{'; '.join(r.flags)}]" if r.flags else ""))
         print(f"{len(rows)} curves: {rows.n_failed} failed, {rows.n_flagged} flagged"

@@ -56,6 +56,14 @@ class CurveFit(IdentificationResult):
     notes : list of str
     surface : dict
         Identity of the response surface used (``hash``, ``settings``).
+    model : str
+        The model fitted: ``neo-hooke`` plus ``+effect`` for each effect.
+    priors : dict
+        Per parameter given a prior: prior, posterior, how much the data narrowed it
+        (:func:`~skin_indent.fitting.multistart.prior_summary`).
+    error_model : dict
+        How each point was weighed (``fit(model=...)``: noise and model error in quadrature;
+        empty for the half-space fit of the paper's path, weighed by the noise alone).
     """
 
     prepared: object = None
@@ -69,6 +77,9 @@ class CurveFit(IdentificationResult):
     flags: tuple = ()
     notes: list = field(default_factory=list)
     surface: dict = field(default_factory=dict)
+    model: str = "neo-hooke"
+    priors: dict = field(default_factory=dict)
+    error_model: dict = field(default_factory=dict)
 
     @property
     def trusted(self) -> bool:
@@ -118,6 +129,9 @@ class CurveFit(IdentificationResult):
             "flags": list(self.flags),
             "notes": list(self.notes),
             "surface": dict(self.surface),
+            "model": self.model,
+            "priors": dict(self.priors),
+            "error_model": dict(self.error_model),
         })
         return jsonable(out)
 
@@ -125,7 +139,9 @@ class CurveFit(IdentificationResult):
         """Readable summary: segments, baseline, contact point, fit, Hertz comparison, quality."""
         p = self.prepared
         seg = ", ".join(f"{s.kind} rows {s.start}-{s.stop}" for s in p.segments)
-        lines = [f"segments: {seg}; fitting the approach"]
+        kinds = [k for k in ("approach", "hold", "retract") if np.any(p.kind == k)]
+        lines = [f"model: {self.model}", f"segments: {seg}; fitting the {' and '.join(kinds) or 'approach'}"
+                 + (f" ({p.n} points, bins of {p.binned})" if p.binned > 1 else "")]
         b = p.baseline
         if b is None:
             why = "contact at recorded depth 0" if p.contact_mode == "origin" else "no pre-contact part"
@@ -146,14 +162,22 @@ class CurveFit(IdentificationResult):
             lines.append("contact point: recorded depth 0 (the curve starts in contact)")
         lines.append(super().report(digits))
         h = self.hertz
-        lines.append(f"E* = E/(1-nu^2): large-strain FE {self.e_star_kPa:.5g} +/- {self.e_star_std_kPa:.2g} kPa, "
-                     f"Hertz (small strain, same points) {h['E_star_kPa']:.5g} +/- {h['E_star_std_kPa']:.2g} kPa: "
-                     f"FE differs from Hertz by {self.fe_vs_hertz_percent:+.1f}% at h/R up to "
-                     f"{self.max_depth_ratio:.3g}")
+        if self.model == "neo-hooke":
+            lines.append(f"E* = E/(1-nu^2): large-strain FE {self.e_star_kPa:.5g} +/- {self.e_star_std_kPa:.2g} kPa, "
+                         f"Hertz (small strain, same points) {h['E_star_kPa']:.5g} +/- {h['E_star_std_kPa']:.2g} kPa: "
+                         f"FE differs from Hertz by {self.fe_vs_hertz_percent:+.1f}% at h/R up to "
+                         f"{self.max_depth_ratio:.3g}")
+        else:
+            lines.append(f"E* = E/(1-nu^2) of the top material {self.e_star_kPa:.5g} +/- {self.e_star_std_kPa:.2g} "
+                         f"kPa; Hertz's homogeneous small-strain fit of the loading points {h['E_star_kPa']:.5g} "
+                         f"+/- {h['E_star_std_kPa']:.2g} kPa")
+        if self.error_model:
+            lines.append(f"error model: each point weighed by sqrt(noise^2 + ({self.error_model['model_error']:g} "
+                         "F)^2), noise and the forward model's relative error; chi-square and BIC with it")
         q = self.quality
         if q:
             lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN:.3g} mN = {q['misfit']:.2g} x the noise "
-                         f"{q['noise_mN']:.3g} mN from the {q['noise_source']}; residual "
+                         f"{q['noise_mN']:.3g} mN, {q['noise_source']}; residual "
                          f"{'white' if q['white'] else 'structured'})")
         lines.extend(f"flag: {f}" for f in self.flags)
         lines.extend(f"note: {n}" for n in self.notes)
@@ -171,17 +195,25 @@ def _e_star(result) -> tuple[float, float]:
     return E / (1 - nu**2), math.sqrt(var) if var >= 0 else math.nan
 
 
-def quality(prepared, residual_mN, n_free: int) -> dict:
-    """The fit's misfit against a noise level independent of the model, and its whiteness."""
+def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | None = None) -> dict:
+    """The fit's misfit against a noise level independent of the model, and its whiteness.
+
+    ``noise`` = ``(noise_mN, source)`` where the fit already has one (default the curve's,
+    :meth:`~skin_indent.measurement.PreparedCurve.noise_mN`); ``white`` where the fit already
+    judged its residual (default judged here at that noise).
+    """
     from ..inverse.residuals import analyse_residuals
 
-    try:
-        noise, source = prepared.noise_mN()
-    except ValueError:
-        return {}
+    if noise is None:
+        try:
+            noise = prepared.noise_mN()
+        except ValueError:
+            return {}
+    noise, source = noise
     r = np.asarray(residual_mN, dtype=float)
     rms = float(np.sqrt(np.mean(r**2)))
-    analysis = analyse_residuals(r, noise, n_free)
+    if white is None:
+        white = analyse_residuals(r, noise, n_free).white
     misfit = rms / noise
     if misfit > MISFIT_LIMIT:
         verdict = "misfit far above the noise: the model does not describe this curve; try `skin-indent diagnose`"
@@ -189,18 +221,33 @@ def quality(prepared, residual_mN, n_free: int) -> dict:
         # a residual well under the data's own noise level carries no evidence of a missing effect,
         # whatever its pattern (noise-free or smoothed data: the pattern is round-off or interpolation)
         verdict = "fits below the noise level"
-    elif not analysis.white:
+    elif not white:
         verdict = "structured misfit: try `skin-indent diagnose`"
     else:
         verdict = "fits to the noise"
-    return {"noise_mN": noise, "noise_source": source, "misfit": misfit, "white": bool(analysis.white),
+    return {"noise_mN": noise, "noise_source": source, "misfit": misfit, "white": bool(white),
             "verdict": verdict}
+
+
+def _independent_noise(prepared) -> tuple[float, str] | None:
+    """The curve's noise level independent of any model, or None when it cannot be estimated."""
+    try:
+        return prepared.noise_mN()
+    except ValueError:
+        return None
 
 
 def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = "auto", fixed: dict | None = None,
         radius_mm: float | None = None, x0=None, tol: float | None = None, noise_mN: float | None = None,
-        context=None, mesh: str = "medium") -> CurveFit:
-    """Fit a recorded curve with the large-strain neo-Hookean half-space (and Hertz, for comparison).
+        context=None, mesh: str | None = None, model=None, priors: dict | None = None, **options) -> CurveFit:
+    """Fit a recorded curve: the paper's neo-Hookean half-space, or the model you choose.
+
+    Without ``model`` (and without ``priors``): the paper's path, the large-strain
+    neo-Hookean half-space fitted to the loading segment on a response surface by any of
+    the three methods, with Hertz for comparison. With ``model`` (``"neo-hooke+layer+layer"``)
+    or ``priors``: :func:`~skin_indent.fitting.model_fit.fit_model`, the fit the diagnosis
+    makes of that model (every segment, the multistart fitter, response surfaces or
+    finite elements in the loop, the error model), least squares only.
 
     Parameters
     ----------
@@ -218,7 +265,8 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     fixed : dict, optional
         ``{"E_kPa": ..., "nu": ..., "offset_mm": ...}`` held fixed (``offset_mm``: the
         contact point, recorded depth in mm). ``nu = 0.5`` is the incompressible limit
-        of the compressible finite-element law (see :func:`incompressible_limit`).
+        of the compressible finite-element law (see :func:`incompressible_limit`). With a
+        ``model``, any parameter it reports (``thickness_mm``, ``ratio``...).
     radius_mm : float, optional
         Sphere radius (mm); default the measurement's, else the skin default 6.22 mm.
     x0 : array_like, optional
@@ -227,8 +275,15 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         Stop rule of the filters; a known noise level (mN).
     context : Context, optional
         Where surfaces are cached and built.
-    mesh : str
-        Mesh of the finite-element runs behind a built surface.
+    mesh : str, optional
+        Mesh of the finite-element runs behind a built surface (default ``"medium"``; with a
+        ``model``, ``"coarse"`` as the diagnosis).
+    model : str, optional
+        ``"neo-hooke"`` plus ``+effect`` per effect: fit that model (see above).
+    priors : dict, optional
+        ``{name: (mean, sd)}`` Gaussian priors on parameters (implies the model path).
+    **options
+        Of the model path: ``segments``, ``in_loop`` (see :func:`~skin_indent.fitting.model_fit.fit_model`).
 
     Returns
     -------
@@ -247,6 +302,24 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
 
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if model is not None or priors:
+        from .model_fit import fit_model, parse_model
+
+        effects = parse_model("neo-hooke" if model is None else model)
+        if method != "lsq":
+            if effects or priors:
+                raise ValueError(f"--method {method} fits the neo-Hookean half-space on a response surface; "
+                                 f"{'the model ' + str(model) if effects else 'priors'} need least squares "
+                                 "(--method lsq)")
+        else:
+            if x0 is not None or tol is not None or surface is not None or window is not None or contact != "auto":
+                raise ValueError("a fit of a chosen model prepares the curve as the diagnosis does: start values, "
+                                 "tol, a surface file, a window and the contact mode are not taken")
+            return fit_model(data, effects, fixed=fixed, priors=priors, noise_mN=noise_mN, radius_mm=radius_mm,
+                             context=context, mesh=mesh or "coarse", **options)
+    if options:
+        raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (they need a model=...)")
+    mesh = mesh or "medium"
     fixed = dict(fixed or {})
     if fixed.get("nu") == 0.5:
         return incompressible_limit(data, surface, method, window=window, contact=contact, fixed=fixed,
@@ -285,7 +358,15 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         model, hertz_model = surface, hertz_base
         depth, F, hertz_x0 = h_load, F_load, np.array([e_star0])
         fixed.pop("offset_mm", None)
-    result = run_method(model, depth, F, x0, method, fixed=fixed, tol=tol, noise_mN=noise_mN)
+    # one noise per curve, independent of the model: the uncertainties, chi-square and reduced
+    # chi-square are against it (a model that misses the curve shows as a reduced chi-square >> 1)
+    independent = (noise_mN, "given") if noise_mN is not None else _independent_noise(prepared)
+    sigma = independent[0] if independent else None
+    result = run_method(model, depth, F, x0, method, fixed=fixed, tol=tol,
+                        noise_mN=sigma if method == "lsq" else noise_mN)
+    if sigma is not None and method != "lsq":  # the filters' covariance is their own; the statistics use the noise
+        rss = float(result.residuals_mN @ result.residuals_mN)
+        result = dataclasses.replace(result, noise_mN=sigma, chi2=rss / sigma**2)
     hz = run_method(hertz_model, depth, F, hertz_x0, "lsq")
     contact_sd = None
     if mode == "fit":
@@ -300,7 +381,7 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         notes.append(f"nu fixed at {fixed['nu']:g}; E = {result.parameters['E_kPa']:.5g} kPa")
     flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
              for name in result.info.get("active_bounds", ())]
-    q = quality(prepared, result.residuals_mN, result.n_free)
+    q = quality(prepared, result.residuals_mN, result.n_free, noise=independent)
     if q and q["misfit"] > MISFIT_FLAG:
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its modulus is not to be trusted")

@@ -66,6 +66,9 @@ class Rung(IdentificationResult):
         Finite-element runs the fit made (the finite-element model in the loop; 0 on surfaces).
     at_bounds : tuple of str
         Fit parameters that ended on a face of their range.
+    priors : dict
+        Per parameter given a prior, :func:`prior_summary`: the prior, the posterior, how much
+        the data narrowed it and whether data and prior agree.
     """
 
     BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
@@ -83,6 +86,7 @@ class Rung(IdentificationResult):
     x: np.ndarray = None
     forward_runs: int = 0
     at_bounds: tuple = ()
+    priors: dict = field(default_factory=dict)
 
     @property
     def residual_mN(self) -> np.ndarray:
@@ -98,7 +102,7 @@ class Rung(IdentificationResult):
 
         return jsonable({"model": self.model, "parameters": self.parameters, "std": self.std, "rms_mN": self.rms_mN,
                          "bic": self.bic, "white": self.white, "n_parameters": self.n_parameters,
-                         "structure": self.structure})
+                         "structure": self.structure, "priors": self.priors})
 
 
 def _blended(f0: np.ndarray, f1: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
@@ -135,10 +139,22 @@ class Fitter:
     mesh : str
     """
 
-    def __init__(self, data, noise_mN: float, *, noise_known: bool, context, mesh: str, in_loop: bool = True):
+    def __init__(self, data, noise_mN: float, *, noise_known: bool, context, mesh: str, in_loop: bool = True,
+                 fixed: dict | None = None, priors: dict | None = None):
         from .identification import hertz_modulus
 
         self.data = data
+        #: what the user knows, by the names results report (``thickness_mm``, ``ratio``, ``E_kPa``...):
+        #: values held fixed, and Gaussian priors ``{name: (mean, sd)}``; each applies to the models
+        #: that have the parameter
+        self.fixed = {k: float(v) for k, v in (fixed or {}).items()}
+        self.priors = {k: (float(m), float(sd)) for k, (m, sd) in (priors or {}).items()}
+        for k, (m, sd) in self.priors.items():
+            if not (math.isfinite(m) and math.isfinite(sd) and sd > 0):
+                raise ValueError(f"prior {k}: needs a finite mean and a positive sd, got {m:g} +- {sd:g}")
+        both = set(self.fixed) & set(self.priors)
+        if both:
+            raise ValueError(f"{', '.join(sorted(both))}: held fixed and given a prior; choose one")
         self.radius_mm = data.radius_mm
         self.noise_mN = noise_mN
         # an estimated noise level is uncertain: ~12% for 100 points (estimate_noise), i.e. ~0.35 n dof
@@ -158,7 +174,68 @@ class Fitter:
         self.implicit = (CONTACT_POINT.name,) if data.contact_mode == "fit" else ()
 
     def sigma(self, force) -> np.ndarray:
+        """The error model: sigma_i (mN) of each point, noise and model error in quadrature."""
         return np.sqrt(self.noise_mN**2 + (MODEL_ERROR * np.abs(force)) ** 2)
+
+    def error_model(self) -> dict:
+        """The error model in words and numbers (what every fit of this curve is weighed with)."""
+        return {"noise_mN": self.noise_mN, "model_error": MODEL_ERROR,
+                "sigma": "sqrt(noise^2 + (model_error * F)^2)"}
+
+    def held(self, model) -> dict:
+        """The fixed values of the parameters ``model`` has, as its fit coordinates ``{name: value}``.
+
+        A name the model fits directly (``E_kPa``, ``nu``, ``thickness_mm``, ``offset_mm``) is held
+        as it is; a reported parameter that is a one-to-one function of one fit coordinate
+        (``ratio`` = 1 / ``compliance``) is held through that coordinate. A parameter that
+        depends on several fit coordinates (``C20_kPa`` = ``C20_over_E`` E with E free) cannot be
+        held this way: ``ValueError`` saying what to hold instead.
+        """
+        names = model.parameter_names
+        lo, hi = model.bounds
+        out = {k: v for k, v in self.fixed.items() if k in names}
+        rest = {k: v for k, v in self.fixed.items() if k not in names}
+        if not rest:
+            return out
+        x = np.array([out.get(n, min(max(1.0, lo[i]), hi[i]) if not math.isfinite(hi[i] - lo[i])
+                                 else 0.5 * (lo[i] + hi[i])) for i, n in enumerate(names)])
+        reported = model.model_parameters(x)
+        for k, value in rest.items():
+            if k not in reported:
+                continue  # a parameter of other models (a thickness when no layer is fitted)
+            moves = []
+            for j, n in enumerate(names):
+                y = x.copy()
+                y[j] = x[j] * 1.01 + 1e-3 if math.isfinite(x[j]) else x[j]
+                y[j] = min(max(y[j], lo[j]), hi[j])
+                if model.model_parameters(y)[k] != reported[k]:
+                    moves.append(j)
+            free = [j for j in moves if names[j] not in out]
+            if len(moves) != 1 or len(free) != 1:
+                raise ValueError(f"{k} cannot be held on its own in {model.name}: it depends on "
+                                 f"{', '.join(names[j] for j in moves)}; hold those instead")
+            j = free[0]
+            out[names[j]] = _solve_coordinate(model, x, j, k, value)
+        return out
+
+    def prior_terms(self, model) -> list:
+        """The priors on parameters of ``model``, as :func:`~skin_indent.inverse.fit_least_squares`
+        takes them: ``(g, mean, sd)`` with ``g(theta)`` the reported parameter."""
+        reported = model.model_parameters(0.5 * (model.bounds[0] + np.minimum(model.bounds[1], 1e6)))
+        out = []
+        for k, (m, sd) in self.priors.items():
+            if k in reported:
+                out.append((lambda theta, k=k: float(model.model_parameters(theta)[k]), m, sd))
+        return out
+
+    def check_names(self, model) -> None:
+        """Every held or prior name is a parameter of ``model`` (one line naming those it has)."""
+        reported = set(model.model_parameters(0.5 * (model.bounds[0] + np.minimum(model.bounds[1], 1e6))))
+        reported |= set(model.parameter_names)
+        unknown = [k for k in (*self.fixed, *self.priors) if k not in reported]
+        if unknown:
+            raise ValueError(f"{', '.join(unknown)}: not a parameter of {model.name} (its parameters: "
+                             f"{', '.join(dict.fromkeys((*model.model_parameters(model.bounds[0]), )))})")
 
     def core(self, effects):
         """The elastic force model of these effects (cached per set of elastic effects).
@@ -210,6 +287,23 @@ class Fitter:
         return best
 
     def starts(self, model, effects: tuple) -> list[np.ndarray]:
+        """Start vectors (:meth:`_starts`) with the held values in place, each once."""
+        held = self.held(model)
+        if not held:
+            return self._starts(model, effects)
+        idx = {model.parameter_names.index(k): v for k, v in held.items()}
+        out, seen = [], set()
+        for x in self._starts(model, effects):
+            x = np.array(x, dtype=float)
+            for i, v in idx.items():
+                x[i] = v
+            key = tuple(np.round(x, 12))
+            if key not in seen:
+                seen.add(key)
+                out.append(x)
+        return out
+
+    def _starts(self, model, effects: tuple) -> list[np.ndarray]:
         """Start vectors: the warm start with the new effects switched off first (a fit can
         then only improve on the nested model), then one more occurrence of a repeatable effect
         inserted among the fitted ones (:meth:`_inserted`), then the effects' own start values.
@@ -322,6 +416,7 @@ class Fitter:
         if nested is None and len(starts) <= keep:
             return starts
         d = self.data
+        held = self.held(model)
         n_core = len(model.core.parameter_names)
         costs, forces = [], []
         lo, hi = model.bounds
@@ -342,7 +437,7 @@ class Fitter:
                     y = x.copy() if nested is not None and i == 0 else x
                     f = model.force(d.depth_mm, y)
                     top = float(np.sum(w * f * f))
-                    if top > 0:
+                    if top > 0 and "E_kPa" not in held:
                         y[0] = np.clip(y[0] * float(np.sum(w * f * d.force_mN)) / top, lo[0], hi[0])
                         f = model.force(d.depth_mm, y)
                     costs.append(float(np.sum(((f - d.force_mN) / self.sigma(f)) ** 2)))
@@ -432,6 +527,7 @@ class Fitter:
             return self.fits[key]
         model = self.model(key)
         d = self.data
+        known = {"fixed": self.held(model) or None, "priors": self.prior_terms(model) or None}
         starts = self.starts(model, key)
         options = {}
         lo, hi = model.bounds
@@ -448,10 +544,10 @@ class Fitter:
         best, first = None, None
         for i, x0 in enumerate(starts):
             try:
-                res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **options)
+                res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **known, **options)
             except ValueError:  # a run of this start's fit failed: the next start
                 continue
-            if best is None or res.rms_mN < best.rms_mN:
+            if best is None or _cost(res) < _cost(best):
                 best, first = res, i
             if in_loop:
                 break
@@ -462,28 +558,28 @@ class Fitter:
             probes = []
             for x0 in starts[first + 1:]:
                 try:
-                    probes.append(fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN,
+                    probes.append(fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **known,
                                                     **{**options, "max_nfev": FE_PROBE}))
                 except ValueError:
                     continue
-            lead = min(probes, key=lambda r: r.rms_mN, default=None)
-            if lead is not None and lead.rms_mN < best.rms_mN:
+            lead = min(probes, key=_cost, default=None)
+            if lead is not None and _cost(lead) < _cost(best):
                 if lead.status == 0:  # stopped by its budget: on from where it got
                     x = np.array([lead.parameters[n] for n in model.parameter_names])
                     try:
                         lead = fit_least_squares(model, d.depth_mm, d.force_mN, np.clip(x, lo, hi),
-                                                 noise_mN=self.noise_mN, **options)
+                                                 noise_mN=self.noise_mN, **known, **options)
                     except ValueError:
                         pass
-                best = lead if lead.rms_mN < best.rms_mN else best
-        if in_loop and nested is not None and (best is None or best.rms_mN > self.warm(key).rms_mN):
+                best = lead if _cost(lead) < _cost(best) else best
+        if in_loop and nested is not None and (best is None or _cost(best) > _cost(self.warm(key))):
             # the combination holds the simpler model: a fit that ends above it got lost on the
             # way (measured: two layers from the best screened start 0.0124 mN, one layer 0.0110);
             # the simpler model's optimum stands, the added effect doing nothing
             try:
-                alt = fit_least_squares(model, d.depth_mm, d.force_mN, nested, noise_mN=self.noise_mN,
+                alt = fit_least_squares(model, d.depth_mm, d.force_mN, nested, noise_mN=self.noise_mN, **known,
                                         **{**options, "max_nfev": 1})
-                best = alt if best is None or alt.rms_mN < best.rms_mN else best
+                best = alt if best is None or _cost(alt) < _cost(best) else best
             except ValueError:
                 pass
         if best is None:
@@ -493,6 +589,9 @@ class Fitter:
         pred = d.force_mN - best.residuals_mN
         cov = np.full((x.size, x.size), np.nan)
         idx = [model.parameter_names.index(n) for n in best.free_names]
+        held = [model.parameter_names.index(n) for n in best.fixed_names]
+        cov[held, :] = 0.0  # a held value has no variance
+        cov[:, held] = 0.0
         cov[np.ix_(idx, idx)] = best.covariance
         active = [n for n in best.info.get("active_bounds", ()) if n in best.free_names]
         if active and not np.all(np.isfinite(best.covariance)):
@@ -505,6 +604,12 @@ class Fitter:
             cov = np.zeros((x.size, x.size))
             cov[np.ix_(keep, keep)] = self.noise_mN**2 * unscaled
         params, std = model.reported(x, cov)
+        for k in self.fixed:  # held: reported without a standard deviation, as every fit does
+            std.pop(k, None)
+        for k in best.fixed_names:
+            std.pop(k, None)
+        knowledge = {k: prior_summary(params[k], std.get(k, math.nan), *self.priors[k])
+                     for k in self.priors if k in params}
         r = best.residuals_mN
         s = self.sigma(pred)
         analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
@@ -514,9 +619,85 @@ class Fitter:
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
                     structure=structure_sentence(d, r, s), bound_model=model, x=x, forward_runs=forward_runs,
-                    at_bounds=tuple(best.info.get("active_bounds", ())))
+                    at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge)
         self.fits[key] = rung
         return rung
+
+
+#: posterior sd over prior sd below which the data determined a parameter, above which the prior did
+DATA_DETERMINED, PRIOR_DETERMINED = 0.5, 0.9
+#: a prior and the data disagree when the data alone put the parameter this many combined sd away
+TENSION = 3.0
+
+
+def prior_summary(posterior: float, posterior_sd: float, mean: float, sd: float) -> dict:
+    """What the data did to a Gaussian prior ``mean +- sd`` on one parameter.
+
+    ``narrowed`` = posterior sd / prior sd (1: the data added nothing); ``determined_by``
+    ``"data"`` (below :data:`DATA_DETERMINED`), ``"prior"`` (above :data:`PRIOR_DETERMINED`)
+    or ``"both"``; ``tension`` = how many combined sd separate the prior from what the data
+    alone say (the linear-Gaussian data-alone estimate, ``1/s_d^2 = 1/s_post^2 - 1/s_prior^2``),
+    flagged above :data:`TENSION`.
+    """
+    ratio = posterior_sd / sd if math.isfinite(posterior_sd) else math.nan
+    if not math.isfinite(ratio):
+        by = "unknown"
+    else:
+        by = "data" if ratio < DATA_DETERMINED else "prior" if ratio > PRIOR_DETERMINED else "both"
+    tension = math.nan
+    if math.isfinite(ratio) and 0 < ratio < 1:
+        info_data = 1 / posterior_sd**2 - 1 / sd**2
+        sd_data = 1 / math.sqrt(info_data)
+        alone = (posterior / posterior_sd**2 - mean / sd**2) / info_data
+        tension = abs(alone - mean) / math.hypot(sd_data, sd)
+    return {"prior_mean": mean, "prior_sd": sd, "posterior": posterior, "posterior_sd": posterior_sd,
+            "narrowed": ratio, "determined_by": by, "tension_sd": tension,
+            "in_tension": bool(math.isfinite(tension) and tension > TENSION)}
+
+
+def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:
+    """AIC and BIC of a fit from its weighted chi-square (:attr:`Rung.BIC_FORMULA`).
+
+    ``chi2_weighted`` is the sum of r_i^2 / sigma_i^2 (noise and model error in
+    quadrature), ``k`` the fitted parameters, ``n`` the points; with ``n_eff`` (an effective
+    sample size, the diagnosis's) the chi-square counts ``n_eff / n`` of its value and the
+    penalty ``ln n_eff`` per parameter.
+    """
+    m = float(n if n_eff is None else n_eff)
+    chi2 = chi2_weighted * m / n
+    return chi2 + 2.0 * k, chi2 + k * math.log(m)
+
+
+def _solve_coordinate(model, x, j: int, name: str, value: float) -> float:
+    """The fit coordinate ``j`` at which the reported parameter ``name`` equals ``value`` (the other
+    coordinates as in ``x``); ``ValueError`` when no value of the coordinate's range gives it."""
+    from scipy.optimize import brentq
+
+    lo, hi = model.bounds[0][j], model.bounds[1][j]
+
+    def reported(t):
+        y = np.array(x, dtype=float)
+        y[j] = t
+        return float(model.model_parameters(y)[name])
+
+    for end in (lo, hi):
+        if math.isfinite(end) and reported(end) == value:
+            return float(end)
+    top = hi if math.isfinite(hi) else max(lo, 0.0) + 1e6
+    grid = np.linspace(lo, top, 401)
+    values = np.array([reported(t) for t in grid])
+    diff = values - value
+    for a, b, fa, fb in zip(grid[:-1], grid[1:], diff[:-1], diff[1:]):
+        if math.isfinite(fa) and math.isfinite(fb) and fa * fb <= 0:
+            return float(a if fa == 0 else brentq(lambda t: reported(t) - value, a, b, xtol=1e-14, rtol=1e-12))
+    finite = values[np.isfinite(values)]
+    span = f"{finite.min():.4g} to {finite.max():.4g}" if finite.size else "none"
+    raise ValueError(f"{name} = {value:g} is outside what {model.name} can take (from {span})")
+
+
+def _cost(result) -> float:
+    """What a fit minimises: the data's chi-square plus the priors' (their -2 ln posterior up to a constant)."""
+    return float(result.chi2 + result.info.get("prior_chi2", 0.0))
 
 
 def structure_sentence(data, residual, sigma) -> str:

@@ -74,7 +74,7 @@ def in_force_units(method):
         theta = np.array([r.parameters[n] for n in model.parameter_names])
         problem = make_problem(model, depth, force, theta, kwargs.get("fixed"))
         x = np.array([r.parameters[n] for n in problem.free_names])
-        filt = r.covariance_source == "filter"
+        filt = r.covariance_source in ("filter", "jacobian+priors")  # not the data's Jacobian alone
         info = {k: v for k, v in r.info.items() if k not in ("covariance_jacobian", "residual_sigma_mN")}
         info["force_unit_mN"] = unit
         return build_result(problem, x, method=r.method, iterations=r.iterations, status=r.status,

@@ -10,7 +10,7 @@ import numpy as np
 from ._coords import Coordinates
 from ._units import in_force_units
 from ._problem import make_problem
-from .result import IdentificationResult, build_result
+from .result import IdentificationResult, build_result, jacobian_covariance
 
 __all__ = ["fit_least_squares"]
 
@@ -19,7 +19,7 @@ __all__ = ["fit_least_squares"]
 def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | None = None,
                       noise_mN: float | None = None, coordinates: str = "auto", x_scale="jac",
                       loss: str = "linear", ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-10,
-                      max_nfev: int | None = None) -> IdentificationResult:
+                      max_nfev: int | None = None, priors=None) -> IdentificationResult:
     """Fit the free parameters by bounded least squares.
 
     Minimises ``sum((F_model(h_i; theta) - F_i)^2)`` with
@@ -64,6 +64,14 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
         curve (8 points to 0.3 mm: 1e-8 absolute left E 2.5e-4 off).
     max_nfev : int, optional
         Function-evaluation limit (scipy default if None).
+    priors : sequence of (callable, float, float), optional
+        Gaussian priors ``(g, mean, sd)``: ``g(theta)`` is a quantity of the full parameter
+        vector (a parameter as users read it: a thickness in mm, a ratio...) known
+        independently as ``mean +- sd`` (an ultrasound thickness). Each adds the residual
+        ``(g(theta) - mean) / sd`` to the data's ``(F_model - F) / noise``, so the cost is
+        ``-2 ln`` of the posterior; the covariance is then ``(J_w^T J_w)^-1`` of the whitened
+        Jacobian with the prior rows (``covariance_source = "jacobian+priors"``), and
+        ``info["prior_chi2"]`` holds the priors' share of the cost. Needs ``noise_mN``.
 
     Returns
     -------
@@ -86,18 +94,46 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
     if noise_mN is not None and not (np.isfinite(noise_mN) and noise_mN > 0):
         raise ValueError(f"noise_mN must be a positive number, got {noise_mN}")
     coords = Coordinates(problem.free_names, lo, hi, coordinates)
+    priors = list(priors or ())
+    if priors and noise_mN is None:
+        raise ValueError("priors need the noise level (noise_mN): they are weighed against it")
+    for _, mean, sd in priors:
+        if not (np.isfinite(mean) and np.isfinite(sd) and sd > 0):
+            raise ValueError(f"a prior needs a finite mean and a positive sd, got {mean} +- {sd}")
 
     iterates = []
     scale = float(np.sqrt(np.mean(problem.force_mN**2))) or 1.0  # mN: tolerances relative to the data
+    # prior rows in the units of the data rows: (g - mean) / sd times noise / scale
+    weight = np.array([noise_mN / (scale * sd) for _, _, sd in priors]) if priors else None
+
+    def prior_residual(x):
+        theta = problem.theta(x)
+        return np.array([g(theta) - mean for g, mean, _ in priors]) * weight
+
+    def prior_jacobian(x):
+        """d prior residual / d x (central differences in the free parameters: no force model run)."""
+        G = np.zeros((len(priors), x.size))
+        for j in range(x.size):
+            step = 1e-6 * max(abs(x[j]), 1e-6)
+            up, down = x.copy(), x.copy()
+            up[j] = min(x[j] + step, hi[j])
+            down[j] = max(x[j] - step, lo[j])
+            if up[j] > down[j]:
+                G[:, j] = (prior_residual(up) - prior_residual(down)) / (up[j] - down[j])
+        return G
 
     def fun(u):
         x = coords.external(u)[0]
         iterates.append(x)
-        return (problem.model_force(x) - problem.force_mN) / scale
+        r = (problem.model_force(x) - problem.force_mN) / scale
+        return np.r_[r, prior_residual(x)] if priors else r
 
     def jac(u):
         x, dxdu = coords.external(u)
-        return problem.model_jacobian(x) @ dxdu / scale
+        J = problem.model_jacobian(x) / scale
+        if priors:
+            J = np.vstack([J, prior_jacobian(x)])
+        return J @ dxdu
 
     from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
 
@@ -115,10 +151,17 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
     message = sol.message.rstrip(".")
     if active:
         message += f"; at bound: {', '.join(active)}"
+    info = {"nfev": int(sol.nfev), "njev": int(sol.njev or 0), "optimality": float(sol.optimality),
+            "active_bounds": active, "time_s": elapsed, "coordinates": coords.kind,
+            "x0": dict(zip(problem.free_names, x_start))}
+    covariance, source = None, "jacobian"
+    if priors:
+        # whitened rows: data (F_model - F) / noise, priors (g - mean) / sd
+        Jw = np.vstack([problem.model_jacobian(x) / noise_mN, prior_jacobian(x) * scale / noise_mN])
+        covariance, _ = jacobian_covariance(Jw)
+        source = "jacobian+priors"
+        info["prior_chi2"] = float(np.sum((prior_residual(x) * scale / noise_mN) ** 2))
     return build_result(
         problem, x, method="lsq", iterations=sol.njev if sol.njev is not None else sol.nfev,
-        status=sol.status, message=message, noise_mN=noise_mN,
-        history={"iterates": np.array(iterates)},
-        info={"nfev": int(sol.nfev), "njev": int(sol.njev or 0), "optimality": float(sol.optimality),
-              "active_bounds": active, "time_s": elapsed, "coordinates": coords.kind, "x0": dict(zip(problem.free_names, x_start))},
-    )
+        status=sol.status, message=message, noise_mN=noise_mN, covariance=covariance, covariance_source=source,
+        history={"iterates": np.array(iterates)}, info=info)

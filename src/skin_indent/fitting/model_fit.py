@@ -1,0 +1,200 @@
+"""Fit the model the user chose: the half-space with any effects, values held, priors.
+
+:func:`fit_model` is the path of :func:`skin_indent.fitting.fit` with ``model=...``:
+the curve is prepared as the diagnosis prepares it (every segment, at most
+:data:`MAX_POINTS` points), its noise is the diagnosis's (:func:`curve_noise`), and the
+model is fitted by the same multistart fitter (:class:`~skin_indent.fitting.multistart.Fitter`:
+response surfaces where they cover the model, finite elements in the loop where they do
+not), so a model fitted here and the same model on a diagnosis's ladder are one fit with
+one set of numbers. What the user knows enters as values held fixed and Gaussian priors,
+both by the names results report (``thickness_mm``, ``ratio``, ``thickness2_mm``...).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..effects import CONTACT_POINT, WEIGHED, effect, instances
+from ..inverse import IdentificationResult
+from ..measurement import SEGMENTS, PreparedCurve, prepare
+from .curve import MISFIT_FLAG, CurveFit, quality
+from .identification import hertz_modulus, run_method
+from .multistart import Fitter, evidence
+
+#: at most this many points are fitted (longer curves are averaged in bins, in time order)
+MAX_POINTS = 400
+#: the base law every model starts from
+BASE_MODEL = "neo-hooke"
+
+
+def parse_model(model) -> tuple[str, ...]:
+    """The effects of a model name: ``"neo-hooke+layer+layer"`` -> ``("layer", "layer")``.
+
+    A sequence of effect names is taken as it is. One-line ``ValueError`` for a model that
+    does not start with the base law, an unknown effect, an effect given twice that cannot
+    repeat, or one that is weighed rather than fitted (friction).
+    """
+    if isinstance(model, str):
+        parts = [p.strip() for p in model.split("+")]
+        if parts[0] != BASE_MODEL:
+            raise ValueError(f"a model starts with {BASE_MODEL} (the base law), e.g. {BASE_MODEL}+layer; "
+                             f"got {model!r}")
+        parts = parts[1:]
+    else:
+        parts = list(model)
+    names = tuple(effect(p).name for p in parts)
+    instances(names)  # an effect given twice that cannot repeat: one line
+    weighed = [n for n in names if effect(n).stage == WEIGHED]
+    if weighed:
+        raise ValueError(f"{', '.join(weighed)} is weighed, not fitted: no fitted model has it yet")
+    return names
+
+
+def model_name(effects) -> str:
+    return BASE_MODEL + "".join(f"+{e}" for e in effects)
+
+
+def curve_noise(data: PreparedCurve, noise_mN: float | None = None) -> tuple[float, str]:
+    """The noise level of a prepared curve (mN) and where it comes from: given (per raw sample,
+    divided by sqrt of the bin size), or estimated from the data (local cubic prediction)."""
+    if noise_mN is None:
+        source = "estimated from the data (local cubic prediction)"
+        if data.binned > 1:
+            source += f" after averaging bins of {data.binned} samples"
+        return data.high_frequency_noise_mN(), source
+    if not (math.isfinite(noise_mN) and noise_mN > 0):
+        raise ValueError(f"noise must be a positive number of mN, got {noise_mN}")
+    return float(noise_mN) / math.sqrt(data.binned), "given"
+
+
+def _hertz(prepared: PreparedCurve) -> dict:
+    """Hertz's small-strain fit of the loading points in contact (E* only, contact at the guess)."""
+    from ..models import HertzModel
+
+    h, F = prepared.loading()
+    e0 = hertz_modulus(h, np.maximum(F, 0.0), prepared.radius_mm)
+    model = HertzModel(prepared.radius_mm, (e0 * 1e-3, e0 * 1e3), (0.0, 2.0 * float(h.max())))
+    hz = run_method(model, h, F, np.array([e0]), "lsq")
+    return {"E_star_kPa": hz.parameters["E_star_kPa"], "E_star_std_kPa": hz.std["E_star_kPa"],
+            "contact_point_mm": prepared.contact_guess_mm, "rms_mN": hz.rms_mN}
+
+
+def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dict | None = None,
+              noise_mN: float | None = None, radius_mm: float | None = None, segments=SEGMENTS,
+              in_loop: bool = True, context=None, mesh: str = "coarse") -> CurveFit:
+    """Fit ``model`` to a recorded curve, holding ``fixed`` and weighing ``priors``.
+
+    Parameters
+    ----------
+    data : Measurement or PreparedCurve
+        The curve as recorded (every segment: loading, hold, unloading), or prepared.
+    model : str or sequence of str
+        ``"neo-hooke"`` plus ``+effect`` for each effect (``"neo-hooke+layer+layer"``: two
+        bonded layers over a half-space or a rigid base), or the effects' names.
+    fixed : dict, optional
+        ``{name: value}`` held, by the names the result reports: ``E_kPa``, ``nu``,
+        ``thickness_mm`` (the top layer, mm), ``ratio``, ``thickness2_mm``, ``offset_mm``
+        (the contact point, recorded depth, mm), ``C20_kPa``, ``g1``, ``tau1_s``...
+    priors : dict, optional
+        ``{name: (mean, sd)}``: Gaussian priors from independent measurements (a dermis
+        thickness from ultrasound, ``{"thickness_mm": (1.2, 0.1)}``), each one more residual
+        of the least squares. The result's ``priors`` says, per parameter, how much the data
+        narrowed it and whether data and prior agree.
+    noise_mN : float, optional
+        Noise standard deviation of a raw sample (mN); default estimated from the data.
+    radius_mm : float, optional
+        Sphere radius (mm); default the measurement's, else 6.22 mm.
+    segments : sequence of str
+        Kinds of motion fitted (default all).
+    in_loop : bool
+        Allow the finite-element model in the loop for combinations no surface covers.
+    context : Context, optional
+    mesh : str
+        Mesh of the finite-element runs (default ``"coarse"``, as the diagnosis).
+
+    Returns
+    -------
+    CurveFit
+        ``model`` names the model; ``chi2`` is weighted by the error model (noise and model
+        error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
+        ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.multistart.evidence`).
+
+    Examples
+    --------
+    >>> import skin_indent as si
+    >>> m = si.load_csv(si.bundled_path("forearm_like.csv"), radius_mm=6.22)
+    >>> r = si.fit(m, model="neo-hooke+layer", priors={"thickness_mm": (1.2, 0.1)})  # doctest: +SKIP
+    >>> r.priors["thickness_mm"]["determined_by"]                                    # doctest: +SKIP
+    """
+    from ..context import context_of
+
+    effects = parse_model(model)
+    context = context_of(context)
+    if isinstance(data, PreparedCurve):
+        prepared = data
+    else:
+        if radius_mm is not None and not (math.isfinite(radius_mm) and radius_mm > 0):
+            raise ValueError(f"radius must be a positive number of mm, got {radius_mm}")
+        prepared = prepare(data, segments=tuple(segments), radius_mm=radius_mm, max_points=MAX_POINTS)
+    sigma, source = curve_noise(prepared, noise_mN)
+    fitter = Fitter(prepared, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
+                    fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
+    fitter.check_names(fitter.model(effects))
+    rung = fitter.fit(effects)
+    return curve_fit_of(rung, fitter, noise_source=source)
+
+
+def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
+    """The :class:`CurveFit` of a fitted rung: the numbers the ladder shows, with the data
+    treatment, Hertz's fit of the same loading points, the quality and the flags."""
+    prepared = fitter.data
+    n, k = prepared.n, rung.n_free
+    p = rung.parameters
+    contact = p.get(CONTACT_POINT.parameters[0].name, prepared.contact_guess_mm)
+    contact_sd = rung.std.get(CONTACT_POINT.parameters[0].name)
+    E, nu = p["E_kPa"], p["nu"]
+    e_star = E / (1 - nu**2)
+    sd_E, sd_nu = rung.std.get("E_kPa", 0.0), rung.std.get("nu", 0.0)
+    rho = 0.0
+    if "E_kPa" in rung.free_names and "nu" in rung.free_names:
+        i, j = rung.free_names.index("E_kPa"), rung.free_names.index("nu")
+        rho = float(rung.correlation[i, j]) if np.isfinite(rung.correlation[i, j]) else 0.0
+    g = np.array([1 / (1 - nu**2), 2 * E * nu / (1 - nu**2) ** 2])
+    C = np.array([[sd_E**2, rho * sd_E * sd_nu], [rho * sd_E * sd_nu, sd_nu**2]])
+    var = float(g @ C @ g)
+    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=rung.white)
+    flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
+             for name in rung.at_bounds if not _physical(rung, name)]
+    if q and q["misfit"] > MISFIT_FLAG:
+        flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
+                     "this curve and its parameters are not to be trusted")
+    for name, s in rung.priors.items():
+        if s["in_tension"]:
+            flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
+                         f"({s['tension_sd']:.1f} combined sd apart)")
+    notes = list(prepared.notes)
+    notes += [f"{name} held at {v:g}" for name, v in fitter.fixed.items() if name in p]
+    for name, s in rung.priors.items():
+        notes.append(f"{name}: prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g}, posterior {s['posterior']:.4g} "
+                     f"+- {s['posterior_sd']:.2g} (sd x {s['narrowed']:.2f}: {_BY[s['determined_by']]})")
+    aic, bic = evidence(rung.chi2_weighted, k, n)
+    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
+    base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
+    return CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
+                    contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
+                    e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
+                    flags=tuple(flags), notes=notes, surface={}, model=rung.model, priors=dict(rung.priors),
+                    error_model=fitter.error_model())
+
+
+_BY = {"data": "determined by the data", "prior": "determined by the prior", "both": "data and prior both count",
+       "unknown": "not determined"}
+
+
+def _physical(rung, name: str) -> bool:
+    from ..diagnosis.identifiability import at_physical_limit
+
+    return at_physical_limit(rung.bound_model, rung.x, name)
