@@ -6,6 +6,8 @@ Measures, on this machine, in one run:
 
 - the paper-sized response surface (8 E x 6 nu x 100 depths, default mesh): build
   time with 1 and 2 local workers (target <= 30 s; the paper: 48 runs x 130 s);
+- time of one evaluation of that surface at 1 and at 100 depths (median of 3 x 200
+  calls; ``tests/test_response_surface.py`` once asserted < 1 ms; 30-60 us measured then);
 - time of the paper's EKF to C = 1e-6, of the better EKF and of least squares on
   the Table 1 case (targets 1 s and 0.2 s);
 - the paper's blind tests (Tables 1 and 2) with curves from the forward model at
@@ -43,6 +45,17 @@ def timed(fn, repeat=3):
     return float(np.median(times)), out
 
 
+def evaluation_time(surface, theta=(31.0, 0.4), calls: int = 200) -> dict:
+    """Seconds per ``surface.evaluate`` call at 1 and at 100 depths (median of 3 x ``calls`` calls)."""
+    out = {}
+    for h in (np.array([0.3]), np.linspace(0.006, 0.6, 100)):
+        t, _ = timed(lambda: [surface.evaluate(h, theta) for _ in range(calls)])
+        out[f"evaluate_s_{h.size}_depths"] = t / calls
+        print(f"surface evaluation at {h.size} depth(s): {t / calls * 1e6:.0f} us per call "
+              "(tests once asserted < 1 ms)")
+    return out
+
+
 def main(quick: bool = False) -> dict:
     results = {}
     grid = SurfaceGrid.paper()
@@ -61,6 +74,7 @@ def main(quick: bool = False) -> dict:
         print(f"  1 and 2 workers give identical surfaces: {same}; parallel efficiency "
               f"{results['surface_build_s_workers1'] / (2 * results['surface_build_s_workers2']):.2f}")
     surface = surfaces[2]
+    results.update(evaluation_time(surface))
     d = grid.depth_mm
     fe_cache = {}
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Start-up time: imports of each subpackage and the CLI's time to its first line (issue 15).
 
-    python benchmarks/startup.py             # ~1-2 min (+ one surface build the first time)
+    python benchmarks/startup.py             # ~2-3 min (+ one surface build the first time)
     python benchmarks/startup.py --repeats 3
     python benchmarks/startup.py --src /tmp/before/src --out before.json   # another source tree
 
@@ -17,7 +17,11 @@ from just before the process starts:
   first line of output and to the end, for ``--version``, ``simulate --points 10
   --mesh coarse`` and ``fit`` on the bundled forearm-like CSV with a cached surface
   (``SKIN_INDENT_CACHE`` pointing to ``--cache``, filled once beforehand by the same
-  command; it is a medium-mesh unit surface, built in minutes the first time).
+  command; it is a medium-mesh unit surface, built in minutes the first time); then,
+  on the same cached surface, ``fit`` of a 200,000-row CSV (a Hertz-like curve with
+  noise, as ``tests/test_fuzz.py`` loads: it once asserted < 30 s) and ``demo
+  --no-diagnosis`` (whose second run ``tests/test_identify.py`` once required to take
+  < 2 s and < half the first, which builds the surface: ~10 s).
 
 The target is <= 0.4 s from Python start to the first line of ``fit`` or ``simulate``.
 Results are printed as a table and written to ``benchmarks/results/startup.json``.
@@ -41,6 +45,7 @@ from _bench import HERE, ROOT, write_results
 
 FIT_CSV = ROOT / "src" / "skin_indent" / "data" / "forearm_like.csv"
 CACHE = HERE / "results" / "cache-startup"
+HUGE_ROWS = 200_000
 
 IMPORTS = ["pass", "import numpy", "import scipy", "import skin_indent", "import skin_indent.cli",
            "from skin_indent.cli import build_parser; build_parser()",
@@ -48,6 +53,21 @@ IMPORTS = ["pass", "import numpy", "import scipy", "import skin_indent", "import
                "measurement", "inverse", "response_surface", "analytic", "protocol", "plotting", "models",
                "fitting", "simulate", "mechanics", "effects", "diagnosis",
                "identify", "fit_recorded", "diagnose")]]  # the last three: names before the 0.2 layout
+
+
+def huge_csv(path: Path, rows: int | None = None) -> Path:
+    """A ``rows``-row approach curve to 0.6 mm (time, depth, force: Hertz at 12.5 kPa, nu = 0.35, R = 6.22 mm,
+    with 0.02 mN noise), the size of ``tests/test_fuzz.py``'s huge file."""
+    import numpy as np
+
+    from skin_indent.analytic import hertz_force
+
+    rows = rows or HUGE_ROWS
+    h = np.linspace(0.01, 0.6, rows)
+    force = hertz_force(h, 12.5, 0.35, 6.22) + np.random.default_rng(1).normal(0.0, 0.02, rows)
+    np.savetxt(path, np.column_stack([np.arange(rows) * 1e-3, h, force]), delimiter=",",
+               header="time_s,depth_mm,force_mN", comments="", fmt="%.17g")
+    return path
 
 
 def timed(cmd: list[str], env: dict, cwd: str, ok=(0,)) -> dict | None:
@@ -97,9 +117,12 @@ def main(argv=None) -> int:
     py = sys.executable
     args.cache.mkdir(parents=True, exist_ok=True)
     fit_cmd = [py, "-m", "skin_indent", "fit", str(FIT_CSV)]
-    print(f"filling the surface cache {args.cache} once (fit {FIT_CSV.name}) ...", flush=True)
+    print(f"filling the surface cache {args.cache} once (fit {FIT_CSV.name}, demo) ...", flush=True)
     t = time.perf_counter()
     subprocess.run(fit_cmd, env=env, cwd=cwd, check=True, capture_output=True, timeout=3600)
+    with tempfile.TemporaryDirectory() as tmp:  # the same surface; should it ever differ, it is built here
+        subprocess.run([py, "-m", "skin_indent", "demo", "--no-diagnosis", "--out", tmp], env=env, cwd=cwd,
+                       check=True, capture_output=True, timeout=3600)
     print(f"  {time.perf_counter() - t:.1f} s", flush=True)
 
     out = {"date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
@@ -121,6 +144,10 @@ def main(argv=None) -> int:
             "simulate --points 10 --mesh coarse": [py, "-m", "skin_indent", "simulate", "--points", "10",
                                                    "--mesh", "coarse", "--out", str(Path(tmp) / "curve.csv")],
             f"fit {FIT_CSV.name} (cached surface)": fit_cmd,
+            f"fit {HUGE_ROWS}-row CSV (cached surface)": [py, "-m", "skin_indent", "fit",
+                                                          str(huge_csv(Path(tmp) / "huge.csv"))],
+            "demo --no-diagnosis (cached surface)": [py, "-m", "skin_indent", "demo", "--no-diagnosis",
+                                                     "--out", str(Path(tmp) / "demo")],
         }
         print(f"\n{'command (python -m skin_indent ...)':44s} {'1st line s':>10s} {'end s':>7s} {'cpu s':>7s}")
         for name, cmd in commands.items():

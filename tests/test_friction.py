@@ -31,7 +31,6 @@ vanishes as nu -> 0.5, as (1-2nu)/(1-nu) does.
 """
 
 import math
-import time
 import warnings
 
 import numpy as np
@@ -182,22 +181,19 @@ def test_full_stick_changes_nothing_near_incompressibility():
 
 @pytest.fixture(scope="module")
 def load_unload():
-    """nu = 0.3, h/R = 0.01, 8 loading and 8 unloading increments: {mu: (curve, wall time s)}."""
+    """nu = 0.3, h/R = 0.01, 8 loading and 8 unloading increments: {mu: curve}. (What friction costs in
+    Newton iterations on this protocol depends on the floating-point path: benchmarks/solver_counts.py.)"""
     prot = Protocol.ramp(H, 8, 0.01, unload=True)
-    out = {}
-    for mu in (0.0, 0.1, 10.0):
-        t0 = time.perf_counter()
-        curve = simulate(LinearElastic(10.0, 0.3), SphericalIndenter(R), protocol=prot, mesh="coarse",
+    return {mu: simulate(LinearElastic(10.0, 0.3), SphericalIndenter(R), protocol=prot, mesh="coarse",
                          contact=ContactLaw(friction=mu) if mu else None)
-        out[mu] = (curve, time.perf_counter() - t0)
-    return out
+            for mu in (0.0, 0.1, 10.0)}
 
 
 def test_partial_slip_lies_between_frictionless_and_stick_and_dissipates(load_unload):
     """Finite mu: the force rises with mu up to the stick value (mu = 0.1 slips over most of
     the contact); unloading with slip dissipates (unloading force below loading force),
     sticking does not; the force returns to 0."""
-    F = {mu: c.force_mN for mu, (c, _) in load_unload.items()}
+    F = {mu: c.force_mN for mu, c in load_unload.items()}
     rise = {mu: f[7] / F[0.0][7] - 1 for mu, f in F.items()}
     print("F/F_frictionless - 1 at full depth:", {mu: round(float(v), 5) for mu, v in rise.items()})
     assert rise[0.0] == 0.0 < rise[0.1] < 0.5 * rise[10.0]
@@ -209,17 +205,6 @@ def test_partial_slip_lies_between_frictionless_and_stick_and_dissipates(load_un
             assert np.all(unload_over_load < -1e-3)
         else:  # stick: no slip, no dissipation (but the stick pattern of loading)
             assert np.all(np.abs(unload_over_load) < 5e-4)
-
-
-def test_friction_costs_at_most_three_times_the_frictionless_curve(load_unload):
-    """The same load-unload protocol: Newton iterations (deterministic) and wall time."""
-    base, t_base = load_unload[0.0]
-    for mu in (0.1, 10.0):
-        fric, t_fric = load_unload[mu]
-        ratio = fric.report.total_iterations / base.report.total_iterations
-        print(f"mu={mu}: {fric.report.total_iterations} vs {base.report.total_iterations} Newton iterations "
-              f"({ratio:.2f}x), wall {t_fric:.2f} s vs {t_base:.2f} s ({t_fric / t_base:.2f}x)")
-        assert ratio < 3.0
 
 
 def test_zero_friction_is_exactly_the_frictionless_model():

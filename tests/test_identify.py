@@ -2,7 +2,6 @@
 E-scaling against direct runs, agreement of the methods, the CLI and the demo."""
 
 import json
-import re
 import subprocess
 import sys
 
@@ -180,11 +179,22 @@ def test_demo_runs_end_to_end(tmp_path):
     assert lsq["rms_mN"] > 2 * summary["noise_mN"]  # a layered curve: the homogeneous model misfits
     assert (tmp_path / "demo" / "demo.png").stat().st_size > 20_000
     assert "wrote" in p.stdout
-    # a second run reuses the cached surface: no finite-element run (the time is the lazy import of the
-    # forward model, whose source digest keys the cache: ~0.5 s, against ~10 s for a build)
+    # a second run reuses the cached surface: no finite-element run, the cache is left exactly as it was
+    # (how long the second run takes against a build is measured by benchmarks/startup.py)
+    cache = tmp_path / "cache"
+    before = _files(cache)
+    assert any(name.endswith(".npz") for name in before)  # the first run filled it
     p2 = run_cli("demo", "--out", str(tmp_path / "demo2"), "--no-diagnosis", env=env)
-    first, second = (float(re.search(r"ready in ([0-9.]+) s", out).group(1)) for out in (p.stdout, p2.stdout))
-    assert second < min(2.0, 0.5 * first), (first, second)
+    assert p2.returncode == 0, p2.stderr
+    assert _files(cache) == before
+    again = json.loads((tmp_path / "demo2" / "demo.json").read_text())
+    assert again["results"]["lsq"]["parameters"] == lsq["parameters"]
+
+
+def _files(folder):
+    """{path relative to folder: (size, modification time ns)} of every file below it."""
+    return {str(f.relative_to(folder)): (f.stat().st_size, f.stat().st_mtime_ns)
+            for f in sorted(folder.rglob("*")) if f.is_file()}
 
 
 @pytest.mark.slow

@@ -132,30 +132,72 @@ def test_neo_hookean_layers_in_one_pass_equal_the_per_layer_evaluation():
 def test_a_thin_layer_on_a_rigid_base_keeps_the_depth_step_that_converged():
     """1 mm on a rigid base, 60 % compressed: Newton fails for large depth steps at depth. After
     a failed (halved) increment the converged step is kept (doubled after easy increments)
-    instead of retrying the full step (4 step cuts on this mesh instead of 12 without the fit
-    of the contact zone below; 1 with it), and the force of small uniform steps."""
+    instead of retrying the full step, and the curve reaches the force of small uniform steps.
+    (How many step cuts that saves depends on the floating-point path: benchmarks/solver_counts.py.)"""
     sample = LayeredSample((Layer(1.0, NeoHooke(8.0, 0.45)),), RIGID)
     curve = simulate(sample, SphericalIndenter(R), 0.6, 100, mesh="coarse")
-    assert 0 < curve.report.step_cuts <= 6
     small_steps = simulate(sample, SphericalIndenter(R), np.linspace(0.01, 0.6, 60), mesh="coarse",
                            solve_at_outputs=True)
-    assert small_steps.report.step_cuts == 0
     # the same state to the Newton tolerance (RTOL 1e-5: forces within a few 1e-6)
     assert curve.solved_force_mN[-1] == pytest.approx(small_steps.force_mN[-1], rel=2e-5)
 
 
-def test_keeping_the_contact_zone_against_the_sphere_halves_newton_on_a_rigid_base(monkeypatch):
+@pytest.mark.parametrize("easy", [False, True])
+def test_a_failed_increment_keeps_the_halved_depth_step(monkeypatch, easy):
+    """The step control on its own: Newton is made to fail every step longer than 0.03 mm and to
+    report hard (or easy) increments. Hard: after two cuts the 0.025 mm step is kept up to the
+    first depth and toward the next one (not the whole 0.1 mm range first); easy: it doubles
+    again after each converged increment."""
+    from skin_indent.mechanics import IndentationProblem
+    from skin_indent.mechanics.solver import EASY_ITERATIONS
+
+    prob = IndentationProblem(graded_mesh(R, 0.2, "coarse"), NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.2)
+    newton, tried, last = prob._newton, [], [0.0]
+
+    def limited(u, depth, report):
+        tried.append(depth)
+        if depth - last[0] > 0.03:
+            return False, prob.max_iterations, np.inf, 0.0
+        ok, _, rel, force = newton(u, depth, report)
+        assert ok  # steps of 0.025 mm converge
+        last[0] = depth
+        return ok, 1 if easy else EASY_ITERATIONS + 1, rel, force
+
+    monkeypatch.setattr(prob, "_newton", limited)
+    forces, _, report = prob.solve([0.1, 0.2])
+    if easy:
+        assert tried[:4] == pytest.approx([0.1, 0.05, 0.025, 0.075], abs=1e-12)
+    else:
+        assert tried == pytest.approx([0.1, 0.05, 0.025, 0.05, 0.075, 0.1, 0.125, 0.15, 0.175, 0.2], abs=1e-12)
+        assert report.step_cuts == 2  # set by the step rule above, not by Newton
+    assert tried[-1] == 0.2 and np.all(forces > 0)
+
+
+def test_keeping_the_contact_zone_against_the_sphere_on_a_rigid_base(monkeypatch):
     """The predictor of a confined layer lifts part of the contact zone off the sphere;
-    predictor.SurfaceFit puts it back (coarse mesh: 59 instead of 115 Newton iterations, 1 step
-    cut instead of 4), and the curve stays the same to the Newton tolerance."""
+    predictor.SurfaceFit puts it back on the loading steps of the solve, and the curve stays the same
+    to the Newton tolerance. (The Newton iterations and step cuts it saves depend on the floating-point
+    path: benchmarks/solver_counts.py.)"""
     from skin_indent.mechanics.predictor import SurfaceFit
 
+    fit, steps = SurfaceFit.__call__, []
+
+    def recorded(self, trial, u, depth, new_depth):
+        if not 0 < depth < new_depth:
+            return fit(self, trial, u, depth, new_depth)
+        touching = self._penetration(u, depth) > 0
+        lifted = touching & (self._penetration(trial, new_depth) < 0)
+        out = fit(self, trial, u, depth, new_depth)
+        steps.append((int(lifted.sum()), self._penetration(out, new_depth)[touching]))
+        return out
+
     sample = LayeredSample((Layer(1.0, NeoHooke(8.0, 0.45)),), RIGID)
+    monkeypatch.setattr(SurfaceFit, "__call__", recorded)
     fitted = simulate(sample, SphericalIndenter(R), 0.6, 100, mesh="coarse")
+    assert any(n > 0 for n, _ in steps)  # the zone is lifted (measured: up to 28 of its 32 surface nodes)
+    assert all(np.all(after >= 0) for _, after in steps)  # and put back: every node of it inside the sphere
     monkeypatch.setattr(SurfaceFit, "__call__", lambda self, trial, u, depth, new_depth: trial)
     plain = simulate(sample, SphericalIndenter(R), 0.6, 100, mesh="coarse")
-    assert fitted.report.total_iterations < 0.7 * plain.report.total_iterations
-    assert fitted.report.step_cuts < plain.report.step_cuts
     assert np.abs(fitted.force_mN / plain.force_mN - 1).max() < 2e-5
 
 

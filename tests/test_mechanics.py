@@ -170,45 +170,110 @@ def test_factorisations_reuse_the_ordering_of_the_pattern(coarse_problem):
 
 
 def test_a_tangent_whose_contact_set_moved_is_factorised_at_once(monkeypatch):
-    """When many contact points changed state since the stored factorisation, the new tangent is
-    factorised without a (mostly failing) preconditioned attempt: fewer LU applications, same curve."""
+    """When more than REFACTORISE_AFTER_CONTACT_CHANGES contact points changed state since the stored
+    factorisation, the new tangent is factorised without a (mostly failing) preconditioned attempt, and the
+    curve is the same. The decision is checked on constructed contact sets, the solver's two paths on one
+    tangent, and the wiring on real curves; how many LU applications it saves (a count that depends on
+    the floating-point path) is measured by benchmarks/solver_counts.py."""
     import skin_indent.mechanics.solver as solver_module
     from skin_indent.mechanics.linear import TangentSolver
 
-    applications = []
-    apply_lu = TangentSolver._apply_lu
+    threshold = solver_module.REFACTORISE_AFTER_CONTACT_CHANGES
+    prob = IndentationProblem(graded_mesh(R, 0.6, "coarse"), NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6)
+    # the decision: more than `threshold` points entering or leaving contact since the stored factors
+    n = prob.contact.state(np.zeros(prob.n_dofs), 0.3).pressure_kPa.size
+    assert n > 40 + threshold + 1
+    stored = np.zeros(n, dtype=bool)
+    stored[:40] = True
+    entered, few, left = stored.copy(), stored.copy(), stored.copy()
+    entered[40:41 + threshold] = True
+    few[40:40 + threshold] = True
+    left[:threshold + 1] = False
+    prob._factorised = (prob.linear_solver.factorisations, stored)
+    assert prob._contact_set_moved(entered) and prob._contact_set_moved(left)
+    assert not prob._contact_set_moved(few) and not prob._contact_set_moved(stored)
+    assert not prob._contact_set_moved(None)  # friction, adhesion: no hint
+    prob._factorised = (prob.linear_solver.factorisations + 1, stored)  # factors replaced since: not these
+    assert not prob._contact_set_moved(entered)
+    prob._factorised = None  # nothing factorised in Newton yet
+    assert not prob._contact_set_moved(entered)
 
-    def counting(self, b):
-        applications[-1] += 1
-        return apply_lu(self, b)
+    # the solver: refactorise=True skips the preconditioned attempt that a stored factorisation gets otherwise
+    u = smooth_displacement(prob)
+    prob._residual(u, 0.3)
+    K = prob._tangent(u, 0.3)
+    b = np.random.default_rng(6).standard_normal(K.shape[0])
+    solver = TangentSolver()
+    solver.solve(K, b)
+    assert (solver.factorisations, solver.preconditioner_applications) == (1, 0)
+    solver.solve(K, b)  # preconditioned with the stored factors
+    assert solver.preconditioner_applications > 0
+    applied, factorised = solver.preconditioner_applications, solver.factorisations
+    x_fresh = solver.solve(K, b, refactorise=True)
+    assert solver.factorisations == factorised + 1 and solver.preconditioner_applications == applied
+    assert np.abs(K @ x_fresh - b).max() <= 1e-8 * np.abs(b).max()
 
-    monkeypatch.setattr(TangentSolver, "_apply_lu", counting)
+    # the wiring: every decision of a Newton iteration reaches the linear solve that follows it
+    events = []
+    decide, solve = IndentationProblem._contact_set_moved, TangentSolver.solve
+
+    def recorded_decision(self, active):
+        moved = decide(self, active)
+        events.append(("decision", moved))
+        return moved
+
+    def recorded_solve(self, K, b, rtol=None, refactorise=False):
+        events.append(("solve", refactorise))
+        return solve(self, K, b, rtol=rtol, refactorise=refactorise)
+
+    monkeypatch.setattr(IndentationProblem, "_contact_set_moved", recorded_decision)
+    monkeypatch.setattr(TangentSolver, "solve", recorded_solve)
     curves = {}
-    for threshold in (solver_module.REFACTORISE_AFTER_CONTACT_CHANGES, 10**9):
-        monkeypatch.setattr(solver_module, "REFACTORISE_AFTER_CONTACT_CHANGES", threshold)
-        applications.append(0)
-        curves[threshold] = simulate(NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6, 100, mesh="coarse")
-    hinted, plain = curves.values()
-    assert applications[0] < 0.9 * applications[1]  # 327 against 388 on this mesh
-    assert hinted.report.factorisations <= plain.report.factorisations + 3
+    for value in (threshold, 10**9, -1):  # -1: every tangent after a factorisation in Newton counts as moved
+        monkeypatch.setattr(solver_module, "REFACTORISE_AFTER_CONTACT_CHANGES", value)
+        events.clear()
+        curves[value] = simulate(NeoHooke(8.0, 0.45), SphericalIndenter(R), 0.6, 100, mesh="coarse")
+        decisions = [i for i, (kind, _) in enumerate(events) if kind == "decision"]
+        assert decisions and all(events[i + 1] == ("solve", events[i][1]) for i in decisions)
+        if value == -1:
+            assert any(events[i][1] for i in decisions)
+        if value == 10**9:
+            assert not any(events[i][1] for i in decisions)
+    hinted, plain, always = curves.values()
     assert np.abs(hinted.force_mN / plain.force_mN - 1).max() < 1e-5  # the Newton tolerance
+    assert np.abs(always.force_mN / plain.force_mN - 1).max() < 1e-5
 
 
-def test_hertz_start_and_modified_newton_leave_the_solution_unchanged():
-    """The first increment from Hertz's shape and the modified-Newton steps change the path, not the answer."""
+def test_hertz_start_and_modified_newton_leave_the_solution_unchanged(monkeypatch):
+    """The first increment from Hertz's shape and the modified-Newton steps change the path, not the answer.
+
+    Hertz's shape is checked as a first iterate (close to the converged state, where the zero field is
+    100 % off); the Newton iterations it saves are measured by benchmarks/solver_counts.py."""
+    import skin_indent.mechanics.solver as solver_module
     from skin_indent.mechanics.predictor import hertz_start
 
+    starts = []
+
+    def recorded_start(problem, depth):
+        starts.append(depth)
+        return hertz_start(problem, depth)
+
+    monkeypatch.setattr(solver_module, "hertz_start", recorded_start)
     law, ind, d = NeoHooke(8.0, 0.45), SphericalIndenter(R), np.geomspace(0.006, 0.6, 8)
     imesh = graded_mesh(R, 0.6, "coarse")
     fast = IndentationProblem(imesh, law, ind, 0.6)
     F_fast, _, rep = fast.solve(d)
+    assert starts == [d[0]]  # the first increment, and only it, starts from Hertz's shape
     plain = IndentationProblem(imesh, law, ind, 0.6, modified_below=0.0)
     F_plain, _, rep_plain = plain.solve(d, predictor="linear")  # zero first iterate, full Newton
+    assert starts == [d[0]]
     assert np.abs(F_fast / F_plain - 1).max() < 1e-6
-    assert rep.iterations[0] <= 4 < rep_plain.iterations[0]  # the zero field needs 8-9 iterations
     assert rep.modified_steps > 0 and rep_plain.modified_steps == 0
     u0 = hertz_start(fast, 0.01)  # the surface on the axis sits at the sphere's tip
     assert np.isclose(u0[fast.axis_top_dof], -0.01) and np.all(u0[~fast.free] == 0)
+    # a first iterate near the converged first increment (measured: 3.4 % off)
+    _, u1, _ = IndentationProblem(imesh, law, ind, 0.6).solve(d[:1])
+    assert np.linalg.norm(hertz_start(fast, d[0]) - u1) < 0.1 * np.linalg.norm(u1)
 
 
 def test_surface_fit_puts_a_lifted_contact_zone_back_against_the_sphere():
@@ -278,10 +343,12 @@ def test_force_depth_curve_is_smooth():
 
 
 def test_newton_statistics_and_penetration():
+    """Every solved increment meets the tolerance; the penetration stays small. (Step cuts and Newton
+    iterations per increment depend on the floating-point path: benchmarks/solver_counts.py.)"""
     curve = simulate(NeoHooke(10.0, 0.4), SphericalIndenter(R), 0.6, 100, mesh="coarse")
     rep = curve.report
-    assert rep.increments == DEFAULT_INCREMENTS and rep.step_cuts == 0
-    assert rep.mean_iterations < 8
+    assert curve.solved_depth_mm.size == DEFAULT_INCREMENTS
+    assert rep.increments == len(rep.iterations) == len(rep.residuals) >= DEFAULT_INCREMENTS
     assert max(rep.residuals) <= RTOL
     assert rep.max_penetration_ratio < 1e-3
 

@@ -10,7 +10,6 @@ import json
 import os
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -81,10 +80,8 @@ def test_chiaro_fit_with_nu_fixed_matches_the_instrument_hertz(unit_surface):
     """
     surface, _ = unit_surface
     m = load_csv(REAL / "chiaro_AEBP1_R27.5um.csv", radius_mm=CHIARO_R_MM)
-    t = time.perf_counter()
-    result = fit(m, surface, fixed={"nu": 0.499}, radius_mm=CHIARO_R_MM)
-    elapsed = time.perf_counter() - t
-    print(f"\n{result.report()}\n(fit in {elapsed:.2f} s)")
+    result = fit(m, surface, fixed={"nu": 0.499}, radius_mm=CHIARO_R_MM)  # timed by benchmarks/threads.py
+    print(f"\n{result.report()}")
     assert result.success
     assert result.prepared.contact_mode == "fit" and result.prepared.baseline is not None
     assert abs(result.e_star_kPa / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.2
@@ -99,7 +96,6 @@ def test_chiaro_fit_with_nu_fixed_matches_the_instrument_hertz(unit_surface):
     json.dumps(d)
     for words in ("baseline: subtracted", "contact point:", "fitted jointly", "FE differs from Hertz by"):
         assert words in result.report()
-    assert elapsed < 30  # ~0.4 s on an idle 2-core machine
 
 
 def test_similarity_surface_matches_across_radii(unit_surface):

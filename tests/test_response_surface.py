@@ -240,17 +240,6 @@ def test_tolerance_and_extrapolation(surface):
         surface.force([0.3], (10.0, 1.0), extrapolate=True)
 
 
-def test_timing(surface):
-    import time
-
-    h1, h100 = np.array([0.3]), np.linspace(0.006, 0.6, 100)
-    for h in (h1, h100):
-        t = time.perf_counter()
-        for _ in range(200):
-            surface.evaluate(h, (31.0, 0.4))
-        assert (time.perf_counter() - t) / 200 < 1e-3  # generous: ~30-60 us measured
-
-
 # ------------------------------------------------------------------ build & cache
 
 
