@@ -6,7 +6,8 @@ the curve is prepared as the diagnosis prepares it (every segment, at most
 model is fitted by the same multistart fitter (:class:`~skin_indent.fitting.multistart.Fitter`:
 response surfaces where they cover the model, finite elements in the loop where they do
 not), so a model fitted here and the same model on a diagnosis's ladder are one fit with
-one set of numbers. What the user knows enters as values held fixed and Gaussian priors,
+one set of numbers (the rungs below it are fitted first, as the ladder climbs, so the
+warm starts are the same). What the user knows enters as values held fixed and Gaussian priors,
 both by the names results report (``thickness_mm``, ``ratio``, ``thickness2_mm``...).
 """
 
@@ -143,6 +144,11 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     fitter = Fitter(prepared, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
     fitter.check_names(fitter.model(effects))
+    for i in range(len(effects)):  # the rungs below, as a diagnosis climbs to it: the same warm starts
+        try:
+            fitter.fit(effects[:i])
+        except ValueError:
+            pass  # a simpler model that cannot be fitted: the model is started from its own values
     rung = fitter.fit(effects)
     return curve_fit_of(rung, fitter, noise_source=source)
 

@@ -130,10 +130,9 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
 
     def jac(u):
         x, dxdu = coords.external(u)
-        J = problem.model_jacobian(x) / scale
-        if priors:
-            J = np.vstack([J, prior_jacobian(x)])
-        return J @ dxdu
+        if not priors:
+            return problem.model_jacobian(x) @ dxdu / scale
+        return np.vstack([problem.model_jacobian(x) / scale, prior_jacobian(x)]) @ dxdu
 
     from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
 
