@@ -12,6 +12,7 @@ reproduced exactly.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 
@@ -67,19 +68,22 @@ def in_force_units(method):
         from .result import build_result
 
         kw = dict(kwargs)
-        for key in ("noise_mN", "measurement_std_mN_scaled"):
+        for key in ("noise_mN", "measurement_std_mN_scaled", "sigma_mN"):
             if kw.get(key) is not None:
-                kw[key] = kw[key] / unit
+                kw[key] = np.asarray(kw[key]) / unit
         r = method(_Scaled(model, unit), depth, np.asarray(force, dtype=float) / unit, x0, **kw)
         theta = np.array([r.parameters[n] for n in model.parameter_names])
         problem = make_problem(model, depth, force, theta, kwargs.get("fixed"))
         x = np.array([r.parameters[n] for n in problem.free_names])
-        filt = r.covariance_source in ("filter", "jacobian+priors")  # not the data's Jacobian alone
+        filt = r.covariance_source != "jacobian"  # a filter's, weighted, or with priors: kept as it is
         info = {k: v for k, v in r.info.items() if k not in ("covariance_jacobian", "residual_sigma_mN")}
         info["force_unit_mN"] = unit
-        return build_result(problem, x, method=r.method, iterations=r.iterations, status=r.status,
-                            message=r.message, noise_mN=r.noise_mN * unit,
-                            covariance=r.covariance if filt else None, covariance_source=r.covariance_source,
-                            history=r.history, info=info)
+        out = build_result(problem, x, method=r.method, iterations=r.iterations, status=r.status,
+                           message=r.message, noise_mN=r.noise_mN * unit,
+                           covariance=r.covariance if filt else None, covariance_source=r.covariance_source,
+                           history=r.history, info=info)
+        if kwargs.get("sigma_mN") is not None:  # the weighted chi-square does not depend on the force unit
+            out = dataclasses.replace(out, chi2=r.chi2)
+        return out
 
     return wrapped

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Mapping
 
@@ -19,7 +20,7 @@ __all__ = ["fit_least_squares"]
 def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | None = None,
                       noise_mN: float | None = None, coordinates: str = "auto", x_scale="jac",
                       loss: str = "linear", ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-10,
-                      max_nfev: int | None = None, priors=None) -> IdentificationResult:
+                      max_nfev: int | None = None, priors=None, sigma_mN=None) -> IdentificationResult:
     """Fit the free parameters by bounded least squares.
 
     Minimises ``sum((F_model(h_i; theta) - F_i)^2)`` with
@@ -64,6 +65,12 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
         curve (8 points to 0.3 mm: 1e-8 absolute left E 2.5e-4 off).
     max_nfev : int, optional
         Function-evaluation limit (scipy default if None).
+    sigma_mN : array_like (n,), optional
+        Standard deviation of each point (mN), an error model (the noise and the forward
+        model's relative error in quadrature): the fit minimises ``sum(r_i^2 / sigma_i^2)``,
+        the covariance is ``(J^T W J)^-1`` with ``W = diag(1 / sigma_i^2)``
+        (``covariance_source = "weighted jacobian"``) and ``chi2`` is that sum. ``noise_mN``
+        stays the noise level reported with the result (default the smallest sigma_i).
     priors : sequence of (callable, float, float), optional
         Gaussian priors ``(g, mean, sd)``: ``g(theta)`` is a quantity of the full parameter
         vector (a parameter as users read it: a thickness in mm, a ratio...) known
@@ -95,8 +102,17 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
         raise ValueError(f"noise_mN must be a positive number, got {noise_mN}")
     coords = Coordinates(problem.free_names, lo, hi, coordinates)
     priors = list(priors or ())
+    weighted = sigma_mN is not None
+    if weighted:
+        sigma_mN = np.broadcast_to(np.asarray(sigma_mN, dtype=float), problem.force_mN.shape)
+        if not np.all(np.isfinite(sigma_mN) & (sigma_mN > 0)):
+            raise ValueError("sigma_mN must be positive and finite at every point")
+        if noise_mN is None:
+            noise_mN = float(sigma_mN.min())
     if priors and noise_mN is None:
         raise ValueError("priors need the noise level (noise_mN): they are weighed against it")
+    # data rows are (F_model - F) / scale, times noise / sigma_i where points are weighted
+    row_weight = noise_mN / sigma_mN if weighted else None
     for _, mean, sd in priors:
         if not (np.isfinite(mean) and np.isfinite(sd) and sd > 0):
             raise ValueError(f"a prior needs a finite mean and a positive sd, got {mean} +- {sd}")
@@ -126,13 +142,18 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
         x = coords.external(u)[0]
         iterates.append(x)
         r = (problem.model_force(x) - problem.force_mN) / scale
+        if weighted:
+            r = r * row_weight
         return np.r_[r, prior_residual(x)] if priors else r
 
     def jac(u):
         x, dxdu = coords.external(u)
-        if not priors:
+        if not (priors or weighted):
             return problem.model_jacobian(x) @ dxdu / scale
-        return np.vstack([problem.model_jacobian(x) / scale, prior_jacobian(x)]) @ dxdu
+        J = problem.model_jacobian(x) / scale
+        if weighted:
+            J = J * row_weight[:, None]
+        return (np.vstack([J, prior_jacobian(x)]) if priors else J) @ dxdu
 
     from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
 
@@ -154,13 +175,18 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
             "active_bounds": active, "time_s": elapsed, "coordinates": coords.kind,
             "x0": dict(zip(problem.free_names, x_start))}
     covariance, source = None, "jacobian"
-    if priors:
-        # whitened rows: data (F_model - F) / noise, priors (g - mean) / sd
-        Jw = np.vstack([problem.model_jacobian(x) / noise_mN, prior_jacobian(x) * scale / noise_mN])
-        covariance, _ = jacobian_covariance(Jw)
-        source = "jacobian+priors"
-        info["prior_chi2"] = float(np.sum((prior_residual(x) * scale / noise_mN) ** 2))
-    return build_result(
+    if priors or weighted:
+        # whitened rows: data (F_model - F) / sigma_i, priors (g - mean) / sd
+        Jd = problem.model_jacobian(x) / (sigma_mN[:, None] if weighted else noise_mN)
+        covariance, _ = jacobian_covariance(np.vstack([Jd, prior_jacobian(x) * scale / noise_mN]) if priors else Jd)
+        source = "weighted jacobian" if weighted else "jacobian"
+        if priors:
+            source += "+priors"
+            info["prior_chi2"] = float(np.sum((prior_residual(x) * scale / noise_mN) ** 2))
+    result = build_result(
         problem, x, method="lsq", iterations=sol.njev if sol.njev is not None else sol.nfev,
         status=sol.status, message=message, noise_mN=noise_mN, covariance=covariance, covariance_source=source,
         history={"iterates": np.array(iterates)}, info=info)
+    if weighted:
+        result = dataclasses.replace(result, chi2=float(np.sum((result.residuals_mN / sigma_mN) ** 2)))
+    return result
