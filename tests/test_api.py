@@ -30,6 +30,18 @@ def test_top_level_names_are_the_functions_not_modules():
         si.no_such_name  # noqa: B018
 
 
+def test_completion_lists_the_main_names_and_the_effects_keep_their_names():
+    names = dir(si)
+    for name in ("fit", "diagnose", "simulate", "load_csv", "Context", "fitting", "diagnosis"):
+        assert name in names, name
+    # ``layer`` and ``viscoelastic`` are effects; the mechanics' layer and law have names of their own
+    assert not hasattr(si, "Layer") and not hasattr(si, "Viscoelastic")
+    from skin_indent.mechanics.layers import Layer
+    from skin_indent.mechanics.materials import Viscoelastic
+
+    assert si.MaterialLayer is Layer and si.ViscoelasticMaterial is Viscoelastic
+
+
 def _afm_curve(radius_mm=0.02, E=2.0, nu=0.45, noise=2e-7, seed=1):
     """A curve recorded from before contact at AFM scale (R = 20 um): flat baseline, then contact."""
     h_max = 0.25 * radius_mm

@@ -42,11 +42,11 @@ _EXPORTS = {
     "NeoHooke": "skin_indent.mechanics.materials",
     "LinearElastic": "skin_indent.mechanics.materials",
     "NeoHookeStiffening": "skin_indent.mechanics.materials",
-    "Viscoelastic": "skin_indent.mechanics.materials",
+    "ViscoelasticMaterial": "skin_indent.mechanics.materials",
     "PronyTerm": "skin_indent.mechanics.materials",
     "SphericalIndenter": "skin_indent.mechanics.contact",
     "ContactLaw": "skin_indent.mechanics.contact",
-    "Layer": "skin_indent.mechanics.layers",
+    "MaterialLayer": "skin_indent.mechanics.layers",
     "LayeredSample": "skin_indent.mechanics.layers",
     "RIGID": "skin_indent.mechanics.layers",
     "Protocol": "skin_indent.protocol",
@@ -65,8 +65,18 @@ _EXPORTS = {
     "Diagnosis": "skin_indent.diagnosis",
     "write_report": "skin_indent.diagnosis",
 }
-_RENAMED = {"register_effect": "register"}
+# top-level name -> the name in its module (the mechanics' ``Layer`` and ``Viscoelastic`` are a
+# layer of a sample and a material law; at the top level ``layer`` and ``viscoelastic`` are effects)
+_RENAMED = {"register_effect": "register", "MaterialLayer": "Layer", "ViscoelasticMaterial": "Viscoelastic"}
 __all__ = ["__version__", *_EXPORTS]
+#: the subpackages, listed by ``dir(skin_indent)`` with the names above
+_SUBPACKAGES = ("measurement", "mechanics", "effects", "response_surface", "models", "inverse", "fitting",
+                "diagnosis", "cli")
+
+
+def __dir__():
+    """The top-level names and the subpackages: what completion (IPython, Jupyter) offers after ``si.``."""
+    return sorted({*globals(), *__all__, *_SUBPACKAGES})
 
 
 def __getattr__(name):
