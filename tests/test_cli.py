@@ -104,3 +104,10 @@ def test_surface_build_without_dask_says_how_to_install_it(monkeypatch, capsys):
     code = main(["surface", "build", "--scheduler", "tcp://127.0.0.1:8786", "--nu", "0.3:0.4:2", "--points", "5"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and err == ["skin-indent surface: error: Dask is not installed: pip install 'skin_indent[dask]'"]
+
+
+def test_a_missing_data_file_is_a_user_error(capsys, tmp_path):
+    """Exit 2 (a user error, as every other), not 3 (a failed curve of a batch)."""
+    assert main(["fit", str(tmp_path / "nope.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"skin-indent fit: error: no such file or folder: {tmp_path / 'nope.csv'}"

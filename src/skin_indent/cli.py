@@ -334,6 +334,9 @@ def _run_fit(args) -> int:
     _positive_radius(args.radius)
     if args.workers is not None and args.scheduler is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
+    missing = [str(path) for path in args.data if not path.exists()]
+    if missing:  # a user error (exit 2), not a failed curve
+        raise CLIError(f"no such file or folder: {', '.join(missing)}")
     priors = _parse_priors(args.prior)
     chosen = args.model is not None or bool(priors)
     fixed = _parse_fix(args.fix, any_name=chosen)
