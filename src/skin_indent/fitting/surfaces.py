@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..context import Context, context_of
-from ..response_surface import ResponseSurface, SurfaceGrid, default_settings
+from ..response_surface import ResponseSurface, SurfaceGrid, default_settings, nice_depth
 
 #: Depth ceilings h/R of the unit-radius surfaces that :func:`surface_for` reuses for
 #: every radius (the mesh is designed for the ceiling: the smallest one that covers
@@ -25,8 +25,6 @@ SIMILARITY_RATIOS = (0.1, 0.2, 0.5)
 EFFECT_NU = (0.3, 0.42, 0.46, 0.49)
 #: nu nodes of the neo-Hookean surface of a fitted model
 BASE_NU = tuple(np.linspace(0.2, 0.49, 6))
-#: the depth ranges surfaces are built for, per decade (mm): curves share surfaces and runs
-NICE_DEPTHS = (1.0, 1.25, 1.6, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
 
 
 def default_grid(max_depth_mm: float, n_depth: int = 100) -> SurfaceGrid:
@@ -85,18 +83,6 @@ def check_inside(surface, depth_mm) -> None:
                   if origin else "")
         raise ValueError(f"measured depth reaches {np.max(depth_mm):.4g} mm, beyond the surface's {hi:.4g} mm"
                          f"{scaled}: build a deeper surface or narrow the window")
-
-
-def nice_depth(depth_mm: float) -> float:
-    """The smallest of :data:`NICE_DEPTHS` x 10^k that reaches ``depth_mm`` (mm)."""
-    if not (math.isfinite(depth_mm) and depth_mm > 0):
-        raise ValueError(f"the curve reaches no positive depth (got {depth_mm} mm)")
-    k = math.floor(math.log10(depth_mm))
-    for m in (*NICE_DEPTHS, 10.0):
-        top = float(f"{m * 10.0**k:.6g}")
-        if top >= depth_mm * (1 - 1e-12):
-            return top
-    raise AssertionError("unreachable")  # pragma: no cover
 
 
 def curve_grid(e_star_kPa: float, depth_max_mm: float, nu) -> SurfaceGrid:

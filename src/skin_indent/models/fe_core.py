@@ -51,13 +51,13 @@ mN, with the muscle a half-space as in the truth, whose deep interface makes eac
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 import weakref
 
 import numpy as np
 
 from ..effects import ELASTIC, ForwardSpec, instances
+from ..response_surface import nice_depth
 from ..effects.base import stack_parameters
 
 #: Newton tolerance of the runs in the loop: finite differences of relative step
@@ -194,7 +194,6 @@ class FECore:
 
     def __init__(self, effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: float, mesh: str = "coarse",
                  workers: int | None = None):
-        from ..fitting.surfaces import nice_depth
 
         self.effects = tuple(e for e in instances(effects) if e.stage == ELASTIC)
         self.radius_mm = float(radius_mm)

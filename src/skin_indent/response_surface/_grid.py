@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -179,3 +180,19 @@ class SurfaceGrid:
         parts = (f"{k}=[{a[0]:g} .. {a[-1]:g}] ({a.size})" for k, a in
                  (("depth_mm", self.depth_mm), ("E_kPa", self.E_kPa), ("nu", self.nu)))
         return f"SurfaceGrid({', '.join(parts)})"
+
+
+#: the depth ranges surfaces are built for, per decade (mm): curves share surfaces and runs
+NICE_DEPTHS = (1.0, 1.25, 1.6, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
+
+
+def nice_depth(depth_mm: float) -> float:
+    """The smallest of :data:`NICE_DEPTHS` x 10^k that reaches ``depth_mm`` (mm)."""
+    if not (math.isfinite(depth_mm) and depth_mm > 0):
+        raise ValueError(f"the curve reaches no positive depth (got {depth_mm} mm)")
+    k = math.floor(math.log10(depth_mm))
+    for m in (*NICE_DEPTHS, 10.0):
+        top = float(f"{m * 10.0**k:.6g}")
+        if top >= depth_mm * (1 - 1e-12):
+            return top
+    raise AssertionError("unreachable")  # pragma: no cover
