@@ -393,8 +393,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     if not args.json:
         data = prepared.data
         what = "points" if chosen else "loading points"
-        print(f"data: {path} ({data.n_points} {what} from {data.depth_mm[0]:.4g} to "
-              f"{data.depth_mm[-1]:.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})"
+        print(f"data: {path} ({data.n_points} {what} from {data.depth_mm.min():.4g} to "
+              f"{data.depth_mm.max():.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})"
               + (f"; model {args.model or 'neo-hooke'}" if chosen else ""), flush=True)
     if chosen:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,

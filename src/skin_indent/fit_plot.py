@@ -50,7 +50,7 @@ def fit_arrays(curve_fit) -> dict:
         If the fit's residuals do not belong to its prepared points.
     """
     p = curve_fit.prepared
-    if p.contact_mode == "fit":
+    if p.contact_mode == "fit" or np.size(curve_fit.residuals_mN) == p.n:  # every prepared point (fit(model=...))
         depth, force = np.asarray(p.depth_mm, float), np.asarray(p.force_mN, float)
     else:  # the loading points in contact, as fit() takes them
         sel = (p.kind == "approach") & (p.depth_mm > p.contact_guess_mm)
@@ -124,10 +124,12 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Pa
     for ax in (top, bottom):
         ax.axvspan(lo * dk, hi * dk, color="0.93", zorder=0)
         ax.axvline(curve_fit.contact_point_mm * dk, color="C3", lw=1, ls=":")
-    top.plot(raw_d * dk, raw_f * fk, ".", ms=1.5, color="0.75", label="approach (baseline removed)")
+    raw = "approach (baseline removed)" if p.baseline is not None else "approach as recorded"
+    top.plot(raw_d * dk, raw_f * fk, ".", ms=1.5, color="0.75", label=raw)
     top.plot(a["depth_mm"] * dk, a["force_mN"] * fk, ".", ms=2.5, color="k", label="fitted points")
+    name = "neo-Hooke" if curve_fit.model == "neo-hooke" else curve_fit.model
     top.plot(a["depth_mm"] * dk, a["model_mN"] * fk, "-", color="C0", lw=1.8,
-             label=f"neo-Hooke: E = {curve_fit.parameters['E_kPa']:.4g} kPa, nu = {curve_fit.parameters['nu']:.3g}")
+             label=f"{name}: E = {curve_fit.parameters['E_kPa']:.4g} kPa, nu = {curve_fit.parameters['nu']:.3g}")
     hertz = _hertz_mN(curve_fit, a["depth_mm"])
     if hertz is not None:
         top.plot(a["depth_mm"] * dk, hertz * fk, "--", color="C2", lw=1,
