@@ -196,3 +196,19 @@ def test_a_batch_of_a_chosen_model_tabulates_its_parameters(cache, tmp_path, mon
     assert {"model", "thickness_mm", "thickness_mm_sd", "ratio", "ratio_sd"} <= set(header)
     with pytest.raises(ValueError, match="window"):
         fit_many(folder, model="neo-hooke+layer", window=(0, 0.5), context=Context(cache_dir=cache, workers=1))
+
+
+def test_a_load_unload_fit_of_a_chosen_model_is_plotted_and_tabulated_whole(hidden, cache, tmp_path):
+    from skin_indent.fit_plot import fit_arrays, plot_fit, write_fit_csv
+    from skin_indent.measurement import load_csv
+
+    r = fit(hidden["v06_viscoelastic"], model="neo-hooke+viscoelastic", noise_mN=NOISE, context=_context(cache),
+            mesh="coarse")
+    assert r.prepared.has("retract") and r.n_points == r.prepared.n == 200
+    a = fit_arrays(r)
+    assert a["residual_mN"].size == 200
+    np.testing.assert_allclose(a["force_mN"] - a["model_mN"], r.residuals_mN)
+    plot_fit(r, tmp_path / "fit.png")
+    write_fit_csv(r, tmp_path / "fit.csv", {"version": "test"})
+    back = load_csv(tmp_path / "fit.csv")
+    assert back.n_points == 200
