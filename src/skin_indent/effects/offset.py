@@ -38,8 +38,17 @@ class Offset(Effect):
             last = min(last, data.contact_guess_mm + 0.3 * data.max_indentation_mm)
         return {"offset_mm": (max(first, float(d.max()) - reach_mm), last)}
 
+    #: starts, in units of the deepest indentation past the contact guess: the guess, a contact a
+    #: little earlier and later (a fit from the guess alone can stop in a local minimum next to it)
+    START_SHIFTS = (0.0, -0.1, 0.1, 0.2)
+
     def starts(self, data, bounds):
-        return {"offset_mm": (data.contact_guess_mm,)}
+        """The contact guess first, then the guess moved by :data:`START_SHIFTS` of the deepest
+        indentation, inside ``bounds``."""
+        lo, hi = bounds["offset_mm"]
+        guess, h = data.contact_guess_mm, float(getattr(data, "max_indentation_mm", 0.0))
+        values = [min(max(guess + k * h, lo), hi) for k in self.START_SHIFTS] if h > 0 else [guess]
+        return {"offset_mm": tuple(dict.fromkeys(values))}
 
     def apply(self, ev: Evaluation, fit: dict) -> None:
         ev.h_mm = ev.h_mm - float(fit["offset_mm"])
