@@ -78,6 +78,27 @@ def test_a_prior_enters_least_squares_as_the_gaussian_posterior_of_a_linear_mode
         fit_least_squares(Line(), h, F, [1.0, 0.0], priors=[(lambda theta: theta[0], mean, sd)])
 
 
+def test_weighted_least_squares_is_the_closed_form_generalised_fit_of_a_linear_model():
+    rng = np.random.default_rng(4)
+    h = np.linspace(0.0, 1.0, 40)
+    sigma = 0.05 + 0.3 * h  # an error model growing with the force
+    F = 2.0 * h + 0.5 + rng.normal(0, sigma)
+    r = fit_least_squares(Line(), h, F, [1.0, 0.0], sigma_mN=sigma, coordinates="linear")
+    J = np.stack([h, np.ones_like(h)], axis=1)
+    W = np.diag(1 / sigma**2)
+    cov = np.linalg.inv(J.T @ W @ J)
+    best = cov @ J.T @ W @ F
+    assert r.parameters["a"] == pytest.approx(best[0], rel=1e-6)
+    assert r.parameters["b"] == pytest.approx(best[1], rel=1e-6)
+    assert r.std["a"] == pytest.approx(math.sqrt(cov[0, 0]), rel=1e-5)
+    assert r.chi2 == pytest.approx(float(np.sum(((F - J @ best) / sigma) ** 2)), rel=1e-6)
+    assert r.covariance_source == "weighted jacobian"
+    # the same at AFM scale (forces in nN, run in another force unit): nothing depends on the unit
+    s = fit_least_squares(Line(), h, F * 1e-6, [1e-6, 0.0], sigma_mN=sigma * 1e-6, coordinates="linear")
+    assert s.parameters["a"] == pytest.approx(best[0] * 1e-6, rel=1e-6)
+    assert s.chi2 == pytest.approx(r.chi2, rel=1e-6)
+
+
 def test_prior_summary_says_who_determined_a_parameter_and_flags_tension():
     by_data = prior_summary(1.0, 0.01, 1.02, 0.1)
     assert by_data["determined_by"] == "data" and not by_data["in_tension"]

@@ -440,7 +440,7 @@ class Fitter:
                     if top > 0 and "E_kPa" not in held:
                         y[0] = np.clip(y[0] * float(np.sum(w * f * d.force_mN)) / top, lo[0], hi[0])
                         f = model.force(d.depth_mm, y)
-                    costs.append(float(np.sum(w * (f - d.force_mN) ** 2)))
+                    costs.append(float(np.sum(((f - d.force_mN) / self.sigma(f)) ** 2)))
                     forces.append(f)
                 except ValueError:
                     costs.append(math.inf)
@@ -527,9 +527,7 @@ class Fitter:
             return self.fits[key]
         model = self.model(key)
         d = self.data
-        # one error model: each point weighed by sigma_i (noise and model error), as the chi-square and BIC count it
-        weights = self.sigma(d.force_mN)
-        known = {"fixed": self.held(model) or None, "priors": self.prior_terms(model) or None, "sigma_mN": weights}
+        known = {"fixed": self.held(model) or None, "priors": self.prior_terms(model) or None}
         starts = self.starts(model, key)
         options = {}
         lo, hi = model.bounds
@@ -602,9 +600,9 @@ class Fitter:
             from ..inverse.result import jacobian_covariance
 
             keep = [model.parameter_names.index(n) for n in best.free_names if n not in active]
-            unscaled, _ = jacobian_covariance(model.jacobian(d.depth_mm, x)[:, keep] / weights[:, None])
+            unscaled, _ = jacobian_covariance(model.jacobian(d.depth_mm, x)[:, keep])
             cov = np.zeros((x.size, x.size))
-            cov[np.ix_(keep, keep)] = unscaled
+            cov[np.ix_(keep, keep)] = self.noise_mN**2 * unscaled
         params, std = model.reported(x, cov)
         for k in self.fixed:  # held: reported without a standard deviation, as every fit does
             std.pop(k, None)
@@ -613,7 +611,7 @@ class Fitter:
         knowledge = {k: prior_summary(params[k], std.get(k, math.nan), *self.priors[k])
                      for k in self.priors if k in params}
         r = best.residuals_mN
-        s = weights
+        s = self.sigma(pred)
         analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
         base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
         base.update(parameters=params, std=std, bic=math.nan)
