@@ -12,6 +12,7 @@ our own synthetic ones.
 
 import json
 import math
+import re
 import shutil
 import subprocess
 import sys
@@ -20,6 +21,7 @@ import numpy as np
 import pytest
 from _data import DATA
 
+from skin_indent.data import bundled_path
 from skin_indent.diagnosis import diagnose, write_report
 from skin_indent.effects import EFFECTS
 from skin_indent.diagnosis.workflow import STRONG
@@ -280,3 +282,202 @@ def test_separating_measurement_runs_in_workers_as_in_process():
     assert parallel == pytest.approx(here, rel=1e-9) and min(here.values()) > 0
     broken = SimpleNamespace(effects=("stiffening",), parameters={"E_kPa": 12.0, "nu": 0.45, "C20_kPa": -5.0})
     assert _forward_differences(SimpleNamespace(context=Context(workers=1)), a, broken, scenarios) == {}
+
+
+# ------------------------------------------------------------------ one set of numbers per diagnosis
+_PARAM = re.compile(r"^(\S+) = (inf \(rigid\)|\S+)(?: \+- (\S+))?$")
+
+
+def _num(v):
+    """A number of the JSON (``None``: NaN, ``"inf"``: infinity) as a float."""
+    return math.nan if v is None else float(v)
+
+
+def _json_rungs(out):
+    """Every rung of a diagnosis' JSON (ladder, alternatives, candidates of every step), with its model."""
+    rows = [out["base"], out["current"], *out["ladder"], *out["alternatives"]]
+    for step in out["steps"]:
+        rows += [{**r, "model": f"{step['model']}+{r['effect']}"} for r in step["ranking"]]
+    rows += [{**r, "model": f"{out['steps'][0]['model']}+{r['effect']}"} for r in out["ranking"]]
+    return rows
+
+
+def _printed(value, fmt):
+    """How the text and the HTML print a number of the JSON."""
+    v = _num(value)
+    if math.isinf(v):
+        return "inf (rigid)"
+    return "-" if math.isnan(v) else format(v, fmt)
+
+
+def _check_text_params(text, row):
+    """``"E_kPa = 6.477 +- 0.18, nu = 0.2"`` (a rung of the text report) against the JSON ``row``."""
+    printed = {}
+    for part in text.split(", "):
+        m = _PARAM.match(part)
+        assert m, part
+        printed[m.group(1)] = (m.group(2), m.group(3))
+    assert set(printed) == set(row["parameters"]), (printed, row)
+    for k, (v, sd) in printed.items():
+        assert v == _printed(row["parameters"][k], ".4g"), (k, v, row)
+        if v != "inf (rigid)":
+            want = _num(row["std"].get(k))
+            assert sd == (format(want, ".2g") if math.isfinite(want) else None), (k, sd, row)
+
+
+def _assert_one_set_of_numbers(d, tmp_path):
+    """Every rung's parameters, sd, RMS and BIC agree in ``to_dict()``, ``report()`` and the HTML table."""
+    out = json.loads(json.dumps(d.to_dict(), allow_nan=False))
+    # (i) the JSON: a model has one set of numbers wherever it appears, those of the Diagnosis' rung
+    held = {f.model: f for f in (*d.ladder, *d.alternatives, *(g for s in d.steps for g in (s.rung, *s.ranking)))}
+    by_model = {}
+    for row in _json_rungs(out):
+        f = held[row["model"]]
+        for k, v in f.parameters.items():
+            assert _num(row["parameters"][k]) == pytest.approx(v, rel=1e-6), (row["model"], k)
+        for k, v in f.std.items():
+            assert _num(row["std"][k]) == pytest.approx(v, rel=1e-6, nan_ok=True), (row["model"], k)
+        assert row["rms_mN"] == pytest.approx(f.rms_mN, rel=1e-6) and row["bic"] == pytest.approx(f.bic, rel=1e-6)
+        numbers = {"parameters": row["parameters"], "std": row["std"], "rms_mN": row["rms_mN"], "bic": row["bic"]}
+        assert by_model.setdefault(row["model"], numbers) == numbers, row["model"]
+    # the candidates' dBIC are the differences of the BICs reported
+    for step in out["steps"]:
+        assert step["bic"] == by_model[step["model"]]["bic"]
+        for r in step["ranking"]:
+            assert r["delta_bic"] == pytest.approx(step["bic"] - r["bic"], rel=1e-9, abs=1e-9)
+    for r in out["ranking"]:
+        assert r["delta_bic"] == pytest.approx(out["steps"][0]["bic"] - r["bic"], rel=1e-9, abs=1e-9)
+    # (ii) the text report, at its printed precision
+    text = d.report()
+    seen, step_model = 0, None
+    for line in text.splitlines():
+        m = re.match(r"^  (?:\(other explanation\) )?(neo-hooke\S*)\s+RMS (\S+) mN  BIC\s+(\S+)  (?:white|structured)"
+                     r"  (.*?)(?:, finite elements in the loop \(\d+ runs\))?$", line)
+        if m:
+            row = by_model[m.group(1)]
+            assert m.group(2) == format(row["rms_mN"], ".4g") and m.group(3) == format(row["bic"], ".1f"), line
+            _check_text_params(m.group(4), row)
+            seen += 1
+            continue
+        m = re.match(r"^where (\S+) fails: ", line)
+        if m:
+            step_model = m.group(1)
+            continue
+        m = re.match(r"^  \+(\S+)\s+dBIC\s+(\S+)  RMS (\S+) mN  (?:white|structured)  (.*)$", line)
+        if m:
+            row = by_model[f"{step_model}+{m.group(1)}"]
+            assert m.group(2) == format(by_model[step_model]["bic"] - row["bic"], ".1f"), line
+            assert m.group(3) == format(row["rms_mN"], ".4g"), line
+            _check_text_params(m.group(4), row)
+            seen += 1
+    assert seen == len(d.ladder) + len(d.alternatives) + sum(len(s.ranking) for s in d.steps), text
+    # the sentence's standard deviations are the last rung's
+    cur = by_model[d.current.model]
+    for k, sd in re.findall(r"(\S+) = \S+ \+- (\S+): not determined", d.sentence()):
+        assert sd == _printed(cur["std"][k], ".2g"), (k, sd, d.sentence())
+    # (iii) the HTML table of write_report
+    page = write_report(d, tmp_path).read_text()
+    rows = re.findall(r"<tr><td>([^<]*)</td><td>([^<]*)</td><td>([^<]*)</td><td>(?:yes|no)</td><td>(.*?)</td>", page)
+    assert {r[0] for r in rows} >= {f.model for f in (*d.ladder, *d.alternatives)}
+    for model, rms, bic, params in rows:
+        row = by_model[model]
+        assert rms == format(row["rms_mN"], ".4g") and bic == format(row["bic"], ".1f"), model
+        assert len(params.split(", ")) == len(row["parameters"]), (model, params)
+        for part in params.split(", "):
+            k, rest = part.split(" = ", 1)
+            v, sd = rest.replace("<sup>FE</sup>", "").split(" &plusmn; ")
+            assert v == _printed(row["parameters"][k], ".4g") and sd == _printed(row["std"].get(k), ".4g"), part
+    return out
+
+
+@pytest.fixture(scope="session")
+def forearm():
+    return load_csv(bundled_path("forearm_like.csv"))
+
+
+@ANSWER_KEY
+@pytest.mark.parametrize("name", ["v05_offset", "forearm"])
+def test_one_set_of_numbers_in_every_output(hidden, forearm, run, name, tmp_path):
+    """A diagnosis climbed side by side (the forearm-like curve: offset and layer, two explanations)
+    shows every model with the same parameters, sd, RMS and BIC in its JSON, text and HTML, at one
+    effective sample size."""
+    d = run(forearm if name == "forearm" else hidden[name])
+    out = _assert_one_set_of_numbers(d, tmp_path)
+    assert out["n_effective"] == d.n_effective and f"effective sample size {d.n_effective:.1f}" in d.report()
+    if name == "forearm":  # the BIC the verdict compares is the BIC the ladder and the table show
+        assert d.alternatives and len(d.steps) > 1, d.report()
+        assert all(f.bic > d.current.bic for f in d.alternatives), d.report()
+
+
+@ANSWER_KEY
+def test_surfaces_only_verdict_is_provisional_and_names_what_was_not_tried(hidden, forearm, run):
+    """Combinations no surface covers, kept out by ``in_loop=False``, are named and the verdict is
+    provisional; the sentence never claims that no effect of the vocabulary helps."""
+    d = run(hidden["v02_layer_soft_base"], add=("layer",))  # two layers, layer and stiffening: not fitted
+    assert d.verdict == "none" and d.explained and d.provisional, d.report()
+    assert {"layer+layer", "layer+stiffening"} <= set(d.untried), d.untried
+    out = d.to_dict()
+    assert out["provisional"] is True and set(out["untried"]) == set(d.untried)
+    assert "provisional" in d.sentence() and "layer+layer" in d.sentence()
+    assert "verdict: none (provisional)" in d.report() and "layer+stiffening" in d.report()
+    f = run(forearm)
+    assert f.provisional and "layer+layer" in f.untried, f.report()
+    assert "of the vocabulary" not in f.sentence() and "not tried: " in f.sentence(), f.sentence()
+    # a clean curve: nothing was left untried, the verdict is not provisional
+    clean = run(hidden["v01_clean"])
+    assert clean.verdict == "none" and not clean.provisional and clean.to_dict()["untried"] == []
+
+
+@ANSWER_KEY
+def test_a_climb_cut_at_max_rungs_is_provisional(forearm, run):
+    d = run(forearm, max_rungs=1)
+    assert len(d.ladder) == 2 and not d.explained, d.report()
+    top = "+".join(d.current.effects)
+    assert d.provisional and all(k.startswith(top + "+") for k in d.untried), d.untried
+    assert all("max_rungs = 1" in why for why in d.untried.values())
+    assert "not examined further" in d.sentence() and "no further effect" not in d.sentence()
+
+
+@OWN
+def test_an_unexplained_curve_is_not_called_none(hidden, run):
+    """A ripple no effect can follow: the model does not explain the curve and nothing helps, so the
+    verdict is ``unexplained``, never the ``none`` of a clean curve."""
+    m = hidden["v01_clean"]
+    rippled = measurement_from_arrays(m.depth_mm, m.force_mN + 0.3 * np.sin(2 * np.pi * m.depth_mm / 0.05),
+                                      m.time_s, source="rippled")
+    d = run(rippled, noise_mN=SIGMA)
+    assert not d.explained and not d.missing, d.report()
+    assert d.verdict == "unexplained" and d.to_dict()["verdict"] == "unexplained", d.report()
+    assert "outside the vocabulary" in d.sentence() and not d.provisional
+
+
+@OWN
+def test_the_standard_deviation_that_decides_is_the_one_reported(hidden, cache, diagnosis_surfaces, monkeypatch,
+                                                                  tmp_path):
+    """Where finite-element derivatives decide whether a parameter is determined, they are the sd
+    of the last rung everywhere (ladder, sentence, JSON, HTML), and reading the result makes no
+    finite-element run."""
+    from skin_indent.diagnosis import workflow
+    from skin_indent.diagnosis.identifiability import ALTERNATIVES, RECORDED, Prediction
+
+    calls = []
+
+    def assess(fitter, rung, alternatives):  # the finite-element derivatives, made up: E at 3 times the fit's sd
+        calls.append(rung.model)
+        std = {k: (3 * v if k == "E_kPa" else v) for k, v in rung.std.items()}
+        return [Prediction(RECORDED, "this measurement", std)] + [Prediction(a, a.short, None, "skipped")
+                                                                  for a in ALTERNATIVES]
+
+    monkeypatch.setattr(workflow, "assess", assess)
+    # a layer on top of which only offset is a candidate: nothing is fitted with finite elements in the loop
+    d = diagnose(hidden["v02_layer_soft_base"], add=("layer",), candidates=("offset",), cache_dir=cache,
+                 mesh="coarse", workers=2)
+    assert calls == ["neo-hooke+layer"], d.report()
+    fit = d.fitter.fit(("layer",)).std["E_kPa"]
+    assert d.current.std["E_kPa"] == pytest.approx(3 * fit, rel=1e-12) and d.std_source["E_kPa"] == workflow.FROM_FE
+    assert "E_kPa" in d.undetermined() and f"+- {3 * fit:.2g}: not determined" in d.sentence()
+    out = _assert_one_set_of_numbers(d, tmp_path)
+    assert out["current"]["std_source"]["E_kPa"] == workflow.FROM_FE
+    assert out["ranking"][0]["std_source"]["E_kPa"] == workflow.FROM_FIT  # layer+offset: its own fit's
+    monkeypatch.setattr(workflow, "assess", lambda *a, **k: pytest.fail("a finite-element run on reading"))
+    d.report(), d.sentence(), d.to_dict(), d.undetermined()

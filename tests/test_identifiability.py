@@ -10,7 +10,6 @@ determines a layer's thickness that a shallow one does not), and in the diagnosi
 sentence (a measurement named, failures quiet). Coarse meshes; a few finite-element runs each.
 """
 
-import dataclasses
 import math
 import types
 
@@ -119,15 +118,14 @@ def shallow():
     return diagnose(m, candidates=("offset",), noise_mN=sigma, mesh="coarse")
 
 
-def test_sentence_names_the_measurement_and_caches_it(shallow, monkeypatch):
+def test_sentence_names_the_measurement_and_reading_makes_no_run(shallow, monkeypatch):
     """(iii) The sentence says, per undetermined parameter, which measurement would determine it
-    (or that none would); the finite-element runs behind it are made once per diagnosis."""
+    (or that none would); the finite-element runs behind it are made by diagnose, once: reading
+    the result (sentence, report, JSON) makes none."""
     from skin_indent.diagnosis import workflow
 
-    d = dataclasses.replace(shallow)  # a fresh cache
-    calls = []
-    real = workflow.assess
-    monkeypatch.setattr(workflow, "assess", lambda *a, **k: calls.append(1) or real(*a, **k))
+    d = shallow
+    monkeypatch.setattr(workflow, "assess", lambda *a, **k: pytest.fail("a finite-element run on reading"))
     assert d.missing == ("offset",), d.report()
     reasons = d.undetermined()
     assert "E_kPa" in reasons, d.report()
@@ -136,15 +134,20 @@ def test_sentence_names_the_measurement_and_caches_it(shallow, monkeypatch):
             assert ("would determine it to +-" in reason
                     or "none of a larger/smaller sphere or a deeper indentation would determine it" in reason), reason
     sentence = d.sentence()
-    assert reasons["E_kPa"][1:] in sentence
+    assert reasons["E_kPa"] in sentence
     d.report(), d.to_dict()
-    assert len(calls) == 1
+    # the standard deviation in the reason is the one the last rung reports everywhere
+    assert f"+- {d.current.std['E_kPa']:.2g}: not determined" in reasons["E_kPa"]
 
 
 def test_failing_alternatives_are_not_suggested(shallow, monkeypatch):
     """(iii) A finite-element run that fails (any error) removes that measurement from the
     suggestions; when every one fails the reason says only what the curve does not determine."""
+    from skin_indent.diagnosis import workflow
+
     real = FECore.jacobian
+    fitter = shallow.fitter
+    rung = fitter.fit(shallow.current.effects)  # the fit itself (the diagnosis' last rung holds the decided sd)
 
     def spheres_fail(self, depth_mm, theta, *args, **kwargs):
         if not math.isclose(self.radius_mm, R):
@@ -152,19 +155,17 @@ def test_failing_alternatives_are_not_suggested(shallow, monkeypatch):
         return real(self, depth_mm, theta, *args, **kwargs)
 
     monkeypatch.setattr(FECore, "jacobian", spheres_fail)
-    d = dataclasses.replace(shallow)
-    reason = d.undetermined()["E_kPa"]
+    reason = workflow.determine(fitter, rung)[2]["E_kPa"]
     assert "sphere" not in reason, reason
     assert "; an indentation 1.5 times deeper (0.226 mm) would determine it to +-" in reason, reason  # 2.8 kPa
-    d.sentence()
 
     def everything_fails(self, depth_mm, theta, *args, **kwargs):
         raise ValueError("finite-element run failed at nu = 0.49: no convergence")
 
     monkeypatch.setattr(FECore, "jacobian", everything_fails)
-    d = dataclasses.replace(shallow)
-    assert d.undetermined()["E_kPa"].endswith("not determined by this curve")
-    assert d.to_dict()["sentence"] == d.sentence()
+    std, source, reasons, _ = workflow.determine(fitter, rung)
+    assert reasons["E_kPa"].endswith("not determined by this curve")
+    assert std == rung.std and set(source.values()) == {workflow.FROM_FIT}  # nothing computed: the fit's sd
 
 
 def test_surfaces_only_makes_no_finite_element_runs(shallow, monkeypatch):
@@ -172,10 +173,11 @@ def test_surfaces_only_makes_no_finite_element_runs(shallow, monkeypatch):
     determined without the finite-element runs of the predictions."""
     from skin_indent.diagnosis import workflow
 
-    monkeypatch.setattr(shallow.fitter, "in_loop", False)
+    fitter = shallow.fitter
+    rung = fitter.fit(shallow.current.effects)
+    monkeypatch.setattr(fitter, "in_loop", False)
     monkeypatch.setattr(workflow, "assess", lambda *a, **k: pytest.fail("finite-element runs made"))
-    d = dataclasses.replace(shallow)
-    assert d.undetermined()["E_kPa"].endswith("not determined by this curve")
+    assert workflow.determine(fitter, rung)[2]["E_kPa"].endswith("not determined by this curve")
 
 
 def test_suggestion_picks_the_smallest_determining_sd():

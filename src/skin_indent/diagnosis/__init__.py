@@ -1,8 +1,9 @@
 """Diagnosis: compare model and measurement, say where the model fails and which
 physical effect is missing, add it and watch the error fall.
 
-- :mod:`.residuals`: is a residual noise or structure, and where (statistics);
-- :mod:`.fits`: the fits of one diagnosis, each a :class:`Rung`;
+- :mod:`skin_indent.inverse.residuals`: is a residual noise or structure, and where (statistics);
+- :mod:`skin_indent.fitting.multistart`: the fits of one diagnosis, each a :class:`Rung`;
+- :mod:`.identifiability`: what the curve determines, and which measurement would determine the rest;
 - :mod:`.evidence`: which measurement separates two candidates;
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
 - :mod:`.report`: figures and a self-contained HTML page.

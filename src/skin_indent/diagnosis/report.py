@@ -6,6 +6,10 @@ curve has one, with the +-2 sigma noise band), ``ladder.png`` (RMS and BIC of ea
 rung and candidate) and ``index.html``, which embeds the three figures as base64 PNG
 so that the page reads offline in any browser, with the verdict, the parameter table
 and the ladder.
+
+Every number comes from the :class:`~skin_indent.diagnosis.workflow.Diagnosis` as it is:
+one rung per model (parameters, standard deviations, RMS, BIC), the same as its text
+report and its JSON.
 """
 
 from __future__ import annotations
@@ -18,14 +22,16 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import atomic_write
+from .workflow import FROM_FE
 
 FIGURES = ("fit.png", "residuals.png", "ladder.png")
 
 
 def _models(diag):
-    """Ladder rungs, then the ranked candidates (at most three), without duplicates."""
+    """Ladder rungs, the other explanations, then the first ranked candidates (at most three), without
+    duplicates (a model is one rung of the diagnosis wherever it appears)."""
     out, seen = [], set()
-    for f in (*diag.ladder, *diag.ranking[:3]):
+    for f in (*diag.ladder, *diag.alternatives, *diag.ranking[:3]):
         if f.model not in seen:
             seen.add(f.model)
             out.append(f)
@@ -55,7 +61,7 @@ def figures(diag, out_dir) -> list[Path]:
         ax.plot(d.depth_mm, f.prediction_mN, "-", lw=1.4, label=f"{f.model} (RMS {f.rms_mN:.3g} mN)")
     ax.set_xlabel("depth (mm)")
     ax.set_ylabel("force (mN)")
-    ax.set_title(f"{Path(d.source).name}: verdict {diag.verdict}")
+    ax.set_title(f"{Path(d.source).name}: verdict {diag.verdict}" + (" (provisional)" if diag.provisional else ""))
     ax.legend(fontsize=8)
     fig.tight_layout()
     paths.append(out / FIGURES[0])
@@ -123,24 +129,34 @@ def write_report(diag, out_dir) -> Path:
         f"<figcaption>{p.name}</figcaption></figure>" for p in paths)
     rows = []
     for f in _models(diag):
-        params = ", ".join(f"{k} = {_fmt(v)} &plusmn; {_fmt(f.std.get(k, math.nan))}" for k, v in f.parameters.items())
+        fe = diag.std_source if f is diag.current else {}
+        params = ", ".join(f"{k} = {_fmt(v)} &plusmn; {_fmt(f.std.get(k, math.nan))}"
+                           + ("<sup>FE</sup>" if fe.get(k) == FROM_FE else "") for k, v in f.parameters.items())
         rows.append(f"<tr><td>{html.escape(f.model)}</td><td>{f.rms_mN:.4g}</td><td>{f.bic:.1f}</td>"
                     f"<td>{'yes' if f.white else 'no'}</td><td>{params}</td><td>{html.escape(f.structure)}</td></tr>")
     nd = "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in diag.not_detectable.items())
+    untried = "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in diag.untried.items())
+    provisional = ("" if not diag.provisional else
+                   f'<p class="provisional" id="provisional"><b>Provisional:</b> combinations not tried</p>'
+                   f"<ul>{untried}</ul>")
+    fe_note = ("" if FROM_FE not in diag.std_source.values() else
+               f"<p><sup>FE</sup> standard deviation from {FROM_FE} at the fitted values (it decides whether the "
+               "parameter is determined); the others from the fit's covariance.</p>")
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>skin-indent diagnose: {html.escape(Path(diag.data.source).name)}</title>
 <style>body{{font-family:sans-serif;max-width:1000px;margin:2em auto;line-height:1.4}}
 table{{border-collapse:collapse;font-size:0.85em}}td,th{{border:1px solid #ccc;padding:4px}}
-img{{max-width:100%}}.verdict{{font-size:1.1em;background:#eef;padding:0.8em}}</style></head>
+img{{max-width:100%}}.verdict{{font-size:1.1em;background:#eef;padding:0.8em}}.provisional{{background:#fec;padding:0.5em}}</style></head>
 <body>
 <h1>Diagnosis of {html.escape(str(diag.data.source))}</h1>
-<p class="verdict" id="verdict"><b>Verdict: {html.escape(diag.verdict)}.</b> {html.escape(diag.sentence())}</p>
-<p>Noise {diag.noise_mN:.4g} mN ({html.escape(diag.noise_source)}); {diag.data.n} points
-(binned by {diag.data.binned}); effective sample size {diag.n_effective:.1f}; sphere R = {diag.radius_mm:g} mm.</p>
+<p class="verdict" id="verdict"><b>Verdict: {html.escape(diag.verdict)}{' (provisional)' if diag.provisional else ''}.</b> {html.escape(diag.sentence())}</p>
+{provisional}
+<p>Noise {diag.noise_mN:.4g} mN, {html.escape(diag.noise_source)}; {diag.data.n} points
+(binned by {diag.data.binned}); effective sample size {diag.n_effective:.1f} (every BIC); sphere R = {diag.radius_mm:g} mm.</p>
 <h2>Models</h2>
 <table><tr><th>model</th><th>RMS (mN)</th><th>BIC</th><th>white</th><th>parameters</th><th>where it fails</th></tr>
 {''.join(rows)}</table>
-<h2>Not detectable here</h2><ul>{nd or '<li>-</li>'}</ul>
+{fe_note}<h2>Not detectable here</h2><ul>{nd or '<li>-</li>'}</ul>
 <h2>Figures</h2>
 {imgs}
 </body></html>

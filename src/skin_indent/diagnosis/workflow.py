@@ -19,26 +19,42 @@ The workflow of :func:`diagnose`:
    where :math:`\sigma` is the noise, :math:`\varepsilon` = :data:`MODEL_ERROR` the
    relative accuracy of the forward model itself (independent FE codes agree with ours
    to 0.08-0.22%), :math:`k` the number of fitted parameters and :math:`n_\mathrm{eff}`
-   the AR(1) effective sample size of the best model's residual. An effect is named
-   when it lowers the BIC by more than :data:`STRONG` (Kass & Raftery's "very strong"
-   evidence); ``none`` when nothing does; ``ambiguous`` when the runner-up is within
-   :data:`CLOSE` of the winner. A runner-up within :data:`RIVAL` is not excluded by
-   the data: it is reported in ``confounded_with``, with the measurement that would
-   separate the two, quantified from the two fitted models.
+   the AR(1) effective sample size of the residual of the best-fitting model of the
+   first examination (the given model and each candidate on top of it). It is computed
+   once: every BIC a diagnosis reports, and every comparison it makes (the ladder, the
+   candidates, the explanations climbed side by side), uses that one value. An effect
+   is named when it lowers the BIC by more than :data:`STRONG` (Kass & Raftery's "very
+   strong" evidence); ``ambiguous`` when the runner-up is within :data:`CLOSE` of the
+   winner. A runner-up within :data:`RIVAL` is not excluded by the data: it is reported
+   in ``confounded_with``, with the measurement that would separate the two,
+   quantified from the two fitted models.
 4. **Add it.** ``add`` refits with the named effects and reports the ladder: RMS,
    BIC and whiteness at every rung.
+5. **Say what was not tried.** When nothing named is missing, the verdict is ``none``
+   if the model explains the curve to the noise and ``unexplained`` if it does not.
+   Combinations that were not fitted (no response surface covers them and the
+   finite-element model in the loop is switched off, a fit that failed, a rung the climb
+   reached at ``max_rungs`` and did not examine) are listed in ``untried``, and the
+   verdict is then ``provisional``.
 
 The candidates are the registered effects (:data:`skin_indent.effects.EFFECTS`): each
 says whether it can show in the data (:meth:`~skin_indent.effects.Effect.visible`: a
 viscoelastic effect needs time and a change of rate, adhesion tensile forces...), and
 those that cannot are reported as "not detectable here" with the reason; an effect that
 is weighed rather than fitted (friction) says what it could change.
+
+Everything is computed by :func:`diagnose`, finite-element runs included (the
+standard deviations that decide whether a parameter is determined, the measurement
+that would determine it, the measurement that separates two explanations): a
+:class:`Diagnosis` is plain data, and its text, sentence, JSON and HTML page show one
+set of numbers per model.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -46,7 +62,7 @@ import numpy as np
 from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, Measurement, PreparedCurve, prepare
 from .evidence import suggest_measurement
-from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung
+from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung, evidence
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, at_physical_limit, suggestion
 from ..inverse.residuals import effective_sample_size
 
@@ -66,8 +82,17 @@ ALLOWANCE = 1.3
 #: explanations climbed side by side: the best first candidate and the runner-up when it too
 #: lowers the BIC by more than :data:`STRONG` (one effect may stand in for two), each up to ``max_rungs``
 BEAM = 2
+#: how an examination marks a candidate it could not fit (in ``not_detectable``)
+NOT_FITTED = "not fitted"
 
 
+
+
+#: ``std_source`` of a standard deviation from the fit's own covariance (its model's Jacobian)
+FROM_FIT = "fit"
+#: ``std_source`` of a standard deviation from finite-element derivatives at the fitted values
+#: (:func:`~.identifiability.assess`, the recorded measurement), which decide whether it is determined
+FROM_FE = "finite-element derivatives"
 
 
 def _fmt_params(f: Rung) -> str:
@@ -81,10 +106,19 @@ def _fmt_params(f: Rung) -> str:
     return ", ".join(parts)
 
 
+def _listed(items) -> str:
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
 # ----------------------------------------------------------------------------- result
 @dataclass
 class Diagnosis:
     """The outcome of :func:`diagnose` (``to_dict`` gives the JSON of ``skin-indent diagnose --json``).
+
+    Plain data: :func:`diagnose` computes everything, and every output (:meth:`report`,
+    :meth:`sentence`, :meth:`to_dict`, :func:`~.report.write_report`) reads the same rungs,
+    one :class:`Rung` per model (its parameters, standard deviations, RMS and BIC).
 
     Attributes
     ----------
@@ -95,13 +129,32 @@ class Diagnosis:
         The first examination: the candidates on top of the given model.
     verdict : str
         What was missing from the given model: an effect (``"layer"``), several in the
-        order they were added (``"offset+layer"``, ``"layer+layer"``), ``"none"``, or
-        ``"ambiguous"`` when another set of effects explains the curve about as well
-        (``confounded_with`` names them, ``suggested_measurement`` says what separates them).
+        order they were added (``"offset+layer"``, ``"layer+layer"``); ``"none"`` when the
+        given model explains the curve to the noise; ``"unexplained"`` when it does not and
+        no effect fitted lowers the BIC by more than :data:`STRONG`; or ``"ambiguous"``
+        when another set of effects explains the curve about as well (``confounded_with``
+        names them, ``suggested_measurement`` says what separates them). ``provisional``
+        says whether combinations were left untried.
+    n_effective : float
+        The effective sample size of every BIC of the diagnosis (one value).
     steps : list of Step
         Every examination of the climb.
     alternatives : list of Rung
         The end rungs of the other explanations climbed (a beam of :data:`BEAM`).
+    explained : bool
+        The last rung explains the curve to the noise (:func:`explained`).
+    std_source : dict
+        Where each standard deviation of the last rung comes from: :data:`FROM_FIT` (the
+        fit's covariance) or :data:`FROM_FE` (finite-element derivatives at the fitted
+        values, which replace the fit's where they decide whether the parameter is
+        determined).
+    not_determined : dict
+        :meth:`undetermined`.
+    untried : dict
+        Combinations of effects (``"layer+layer"``) that were not fitted, with why: every
+        examination's candidates that could not be fitted, in every explanation climbed,
+        and the candidates on top of a last rung the climb reached at ``max_rungs``
+        without examining it.
     """
 
     data: PreparedCurve
@@ -120,8 +173,14 @@ class Diagnosis:
     alternatives: list = field(default_factory=list)
     n_given: int = 0
     fitter: object = field(default=None, repr=False)
-    #: :meth:`undetermined` of the last rung, with its predictions: (rung, reasons, predictions)
-    _undetermined: tuple = field(default=None, init=False, repr=False, compare=False)
+    explained: bool = False
+    std_source: dict = field(default_factory=dict)
+    not_determined: dict = field(default_factory=dict)
+    untried: dict = field(default_factory=dict)
+    #: the finite-element predictions behind ``not_determined`` (:func:`~.identifiability.assess`)
+    predictions: list = field(default_factory=list, repr=False)
+    #: the candidate effects examined (None: every registered effect)
+    candidates: tuple | None = None
 
     @property
     def current(self) -> Rung:
@@ -137,86 +196,100 @@ class Diagnosis:
         return tuple(self.current.effects[self.n_given:])
 
     @property
-    def explained(self) -> bool:
-        """The last rung explains the curve to the noise (:func:`explained`)."""
-        return explained(self.current, self.fitter) if self.fitter is not None else bool(self.current.white)
+    def provisional(self) -> bool:
+        """Combinations were left untried (``untried``): the verdict holds for what was fitted."""
+        return bool(self.untried)
 
     def undetermined(self) -> dict:
         """Parameters of the last rung the curve does not determine: ``{name: reason}``.
 
         Not determined: a standard deviation over :data:`~.identifiability.DETERMINED`
         times the value (or not finite), by the fit and, where finite-element runs are
-        allowed, by the finite-element derivatives at the fitted values (they decide: a
-        surface's interpolated slopes can inflate the standard deviation of strongly
-        correlated parameters such as E and nu); the reason then says which other measurement
-        (a larger or smaller sphere to the same depth, a deeper indentation) would
-        determine it and to what standard deviation, predicted from the fitted model
-        (:func:`~.identifiability.assess`: finite-element runs, made once and cached; not
-        made when the diagnosis keeps to surfaces, ``in_loop=False``), or that none would.
-        Also a fit parameter on a face of its range, unless the face is a physical limit
+        allowed, by the finite-element derivatives at the fitted values (they decide, and
+        they are the standard deviation the last rung reports: ``std_source``); the reason
+        then says which other measurement (a larger or smaller sphere to the same depth, a
+        deeper indentation) would determine it and to what standard deviation, predicted
+        from the fitted model (:func:`~.identifiability.assess`; not made when the diagnosis
+        keeps to surfaces, ``in_loop=False``), or that none would. Also a fit parameter on a
+        face of its range, unless the face is a physical limit
         (:func:`~.identifiability.at_physical_limit`: a rigid base, the nearly
-        incompressible end of nu).
+        incompressible end of nu). Computed by :func:`diagnose`.
         """
-        cur = self.current
-        if self._undetermined is not None and self._undetermined[0] is cur:
-            return dict(self._undetermined[1])
-        loose = {}
-        for k, v in cur.parameters.items():
-            sd = cur.std.get(k, math.nan)
-            if math.isfinite(v) and (not math.isfinite(sd) or sd > DETERMINED * abs(v)):
-                loose[k] = (v, sd)
-        predictions = []
-        fe_allowed = self.fitter is not None and getattr(self.fitter, "in_loop", True)
-        if loose and fe_allowed and cur.bound_model is not None and cur.x is not None:
-            predictions = assess(self.fitter, cur, (RECORDED, *ALTERNATIVES))
-            recorded = predictions.pop(0).std
-            if recorded:  # the finite-element derivatives decide (a surface's slopes can inflate an sd)
-                loose = {k: (v, recorded.get(k, sd)) for k, (v, sd) in loose.items()
-                         if not recorded.get(k, math.inf) <= DETERMINED * abs(v)}
-        out = {k: f"{k} = {v:.3g} +- {sd:.2g}: not determined by this curve" + suggestion(k, v, predictions)
-               for k, (v, sd) in loose.items()}
-        for k in cur.at_bounds:
-            if at_physical_limit(cur.bound_model, cur.x, k):
-                continue
-            out.setdefault(k, f"{k} = {cur.fit_parameters.get(k, math.nan):.4g} at the edge of its range: "
-                              "refitted from other starts and still there")
-        self._undetermined = (cur, out, predictions)
-        return dict(out)
+        return dict(self.not_determined)
+
+    def _tested(self) -> str:
+        """``"of the vocabulary"``, or which effects were tested when the candidates were restricted."""
+        if self.candidates is None or set(EFFECTS) <= set(self.candidates):
+            return "of the vocabulary"
+        return f"tested ({', '.join(self.candidates) or 'no candidate was given'})"
+
+    def _untried_clause(self) -> str:
+        """``"not tried: a and b (why)[; c (why)]"`` (empty when everything was tried)."""
+        groups: dict = {}
+        for combo, why in self.untried.items():
+            groups.setdefault(why, []).append(combo)
+        return "; ".join(f"not tried: {_listed(combos)} ({why})" for why, combos in groups.items())
 
     def sentence(self) -> str:
+        """The diagnosis in a few sentences: what is missing, whether the last rung explains the curve,
+        what was not tried, and what the curve does not determine (with the standard deviations the
+        last rung reports)."""
+        text = self._verdict_sentence()
+        for reason in self.not_determined.values():
+            text += f" {reason}."
+        return text
+
+    def _verdict_sentence(self) -> str:
         cur, base = self.current, self.ladder[self.n_given]
         first = self.steps[0] if self.steps else None
+        untried = self._untried_clause()
+        provisional = f" The verdict is provisional: {untried}." if untried else ""
         if not self.missing:
             if self.verdict == "ambiguous" and first is not None:
                 effects = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
                 return (f"The {cur.model} model fails ({cur.structure}); {' and '.join(effects)} explain it "
-                        f"about equally well: {self.suggested_measurement}")
-            if self.verdict != "none" and first is not None:  # named, not added (max_rungs = 0)
+                        f"about equally well: {self.suggested_measurement}" + provisional)
+            if self.verdict not in ("none", "unexplained") and first is not None:  # named, not added (max_rungs = 0)
                 top = first.ranking[0]
                 return (f"The {cur.model} model fails ({cur.structure}); the missing effect is {self.verdict}: "
                         f"adding it lowers the RMS from {cur.rms_mN:.3g} to {top.rms_mN:.3g} mN (noise "
-                        f"{self.noise_mN:.3g} mN) and the BIC by {first.rung.bic - top.bic:.1f}.")
+                        f"{self.noise_mN:.3g} mN) and the BIC by {first.rung.bic - top.bic:.1f}." + provisional)
             if self.explained:
                 return (f"The {cur.model} model explains this curve to the noise level ({cur.rms_mN:.3g} mN RMS "
-                        f"against {self.noise_mN:.3g} mN noise): no missing effect is needed.")
-            return (f"The {cur.model} model does not explain this curve ({cur.rms_mN:.3g} mN RMS against "
-                    f"{self.noise_mN:.3g} mN noise; {cur.structure}), and no effect of the vocabulary lowers the "
-                    f"BIC by more than {STRONG:g}: what is missing is outside the vocabulary.")
+                        f"against {self.noise_mN:.3g} mN noise): no missing effect is needed." + provisional)
+            text = (f"The {cur.model} model does not explain this curve ({cur.rms_mN:.3g} mN RMS against "
+                    f"{self.noise_mN:.3g} mN noise; {cur.structure})")
+            if untried:
+                return (text + f"; of the effects fitted, none lowers the BIC by more than {STRONG:g}, and the verdict "
+                        f"is provisional: {untried}.")
+            outside = ("outside the vocabulary" if self._tested() == "of the vocabulary"
+                       else "not among the effects tested")
+            return (text + f", and no effect {self._tested()} lowers the BIC by more than {STRONG:g}: what is "
+                    f"missing is {outside}.")
         rms = " -> ".join(f"{f.rms_mN:.3g}" for f in self.ladder[self.n_given:])
         what = " and ".join(_plural(self.missing))
         text = f"What the {base.model} model misses: {what} (RMS {rms} mN against {self.noise_mN:.3g} mN noise)"
         if self.explained:
             text += f"; the {cur.model} model explains the curve to the noise."
+        elif untried and not any(s.rung.effects == cur.effects for s in self.steps):  # stopped at max_rungs
+            text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}) and was not "
+                     f"examined further, so the verdict is provisional: {untried}.")
+            untried = ""
+        elif untried:
+            text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}); of the effects "
+                     f"fitted on top of it, none lowers the BIC by more than {STRONG:g}, and the verdict is "
+                     f"provisional: {untried}.")
+            untried = ""
         else:
             text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}) and no further "
-                     f"effect of the vocabulary lowers the BIC by more than {STRONG:g}.")
+                     f"effect {self._tested()} lowers the BIC by more than {STRONG:g}.")
         if self.verdict == "ambiguous" or len(self.confounded_with) > 1:
             others = self.confounded_with[1:]
             text += (f" {' or '.join(others).capitalize()} explains it "
                      f"{'about equally well' if self.verdict == 'ambiguous' else 'nearly as well'}: "
                      f"{self.suggested_measurement}.")
-        for reason in self.undetermined().values():
-            text += f" {reason[0].upper()}{reason[1:]}."
+        if untried:
+            text += f" The verdict is provisional: {untried}."
         return text
 
     def report(self) -> str:
@@ -226,7 +299,7 @@ class Diagnosis:
                  + ", ".join(f"{k} {np.count_nonzero(d.kind == k)}" for k in ("approach", "hold", "retract")
                              if np.any(d.kind == k)) + f"), sphere R = {self.radius_mm:g} mm",
                  f"noise: {self.noise_mN:.4g} mN, {self.noise_source}; model error {100 * MODEL_ERROR:g}% of the "
-                 f"force added in quadrature; effective sample size {self.n_effective:.1f}"]
+                 f"force added in quadrature; effective sample size {self.n_effective:.1f} (every BIC below)"]
         if d.baseline is not None:
             lines.append(f"baseline force subtracted: {d.baseline_mN:.4g} mN at the contact point (pre-contact "
                          "part)")
@@ -239,6 +312,10 @@ class Diagnosis:
         for f in self.alternatives:
             lines.append(f"  (other explanation) {f.model:<20} RMS {f.rms_mN:.4g} mN  BIC {f.bic:9.1f}  "
                          f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
+        fe = [k for k, v in self.std_source.items() if v == FROM_FE]
+        if fe:
+            lines.append(f"  standard deviations of {_listed(fe)} ({self.current.model}): {FROM_FE} at the fitted "
+                         "values (the others: the fit's covariance)")
         for i, step in enumerate(self.steps):
             lines.append(f"where {step.rung.model} fails: {step.rung.structure}")
             lines.append("candidates (delta BIC > 0: better than that model):")
@@ -250,7 +327,9 @@ class Diagnosis:
                     lines.append(f"  +{k:<13} {v}")
                 elif i == 0:  # what the data cannot show does not change up the ladder
                     lines.append(f"  {k:<14} not detectable here: {v}")
-        lines.append(f"verdict: {self.verdict}")
+        lines.append(f"verdict: {self.verdict}" + (" (provisional)" if self.provisional else ""))
+        if self.provisional:
+            lines.append(f"provisional: {self._untried_clause()}")
         lines.append(self.sentence())
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
@@ -261,10 +340,17 @@ class Diagnosis:
         base, cur = self.base, self.current
         contact = cur.parameters.get("offset_mm", 0.0)
 
+        def sources(f):
+            return {k: self.std_source.get(k, FROM_FIT) if f is cur else FROM_FIT for k in f.std}
+
         def rung(f):
             return {"model": f.model, "effects": list(f.effects), "parameters": f.parameters, "std": f.std,
-                    "rms_mN": f.rms_mN, "bic": f.bic, "white": f.white, "structure": f.structure,
-                    "forward_runs": f.forward_runs, "at_bounds": list(f.at_bounds)}
+                    "std_source": sources(f), "rms_mN": f.rms_mN, "bic": f.bic, "white": f.white,
+                    "structure": f.structure, "forward_runs": f.forward_runs, "at_bounds": list(f.at_bounds)}
+
+        def candidate(step, f):
+            return {"effect": f.effects[-1], "delta_bic": step.rung.bic - f.bic, **f.summary(),
+                    "std_source": sources(f)}
 
         return jsonable({
             "data": self.data.source,
@@ -283,15 +369,17 @@ class Diagnosis:
             "explained": self.explained,
             "missing": list(self.missing),
             "undetermined": self.undetermined(),
-            "ranking": [{"effect": f.effects[-1], "delta_bic": self.steps[0].rung.bic - f.bic, **f.summary()}
-                        for f in self.ranking] if self.steps else [],
-            "steps": [{"model": st.rung.model, "verdict": st.verdict,
-                       "ranking": [{"effect": f.effects[-1], "delta_bic": st.rung.bic - f.bic, **f.summary()}
-                                   for f in st.ranking],
+            "ranking": [candidate(self.steps[0], f) for f in self.ranking] if self.steps else [],
+            "steps": [{"model": st.rung.model, "bic": st.rung.bic, "verdict": st.verdict,
+                       "ranking": [candidate(st, f) for f in st.ranking],
                        "not_detectable": dict(st.not_detectable)} for st in self.steps],
             "alternatives": [rung(f) for f in self.alternatives],
             "not_detectable": dict(self.not_detectable),
+            "candidates": list(EFFECTS) if self.candidates is None else list(self.candidates),
             "verdict": self.verdict,
+            "provisional": self.provisional,
+            "untried": list(self.untried),
+            "untried_reasons": dict(self.untried),
             "confounded_with": list(self.confounded_with),
             "suggested_measurement": self.suggested_measurement,
             "sentence": self.sentence(),
@@ -371,7 +459,36 @@ def settled(rung: Rung, fitter: Fitter) -> bool:
     return all(at_physical_limit(rung.bound_model, rung.x, k) for k in rung.at_bounds)
 
 
-def _examine(fitter: Fitter, key: tuple, candidates, n_eff: float) -> Step:
+class Scores:
+    """The BIC of every model of one diagnosis, at one effective sample size.
+
+    ``scores(rung)`` is the rung with its BIC (:attr:`Rung.BIC_FORMULA` at ``n_eff``), made once
+    per model (set of effects): wherever a diagnosis holds a model, it holds that one rung.
+
+    Parameters
+    ----------
+    n : int
+        Points fitted.
+    n_eff : float
+        Their effective sample size (:func:`_effective_size`).
+    """
+
+    def __init__(self, n: int, n_eff: float):
+        self.n, self.n_eff = n, float(n_eff)
+        #: ``{effects: rung with its BIC}``
+        self.rungs: dict[tuple, Rung] = {}
+
+    def bic(self, f: Rung) -> float:
+        return evidence(f.chi2_weighted, f.n_parameters, self.n, self.n_eff)[1]
+
+    def __call__(self, f: Rung) -> Rung:
+        got = self.rungs.get(f.effects)
+        if got is None:
+            got = self.rungs[f.effects] = dataclasses.replace(f, bic=self.bic(f))
+        return got
+
+
+def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
     """Fit every candidate on top of the rung ``key`` and rank them by BIC."""
     data, sigma = fitter.data, fitter.noise_mN
     current = fitter.fit(key)
@@ -393,28 +510,20 @@ def _examine(fitter: Fitter, key: tuple, candidates, n_eff: float) -> Step:
     for name in wanted:
         f = fitted[key + (name,)]
         if isinstance(f, ValueError):
-            not_detectable[name] = f"not fitted: {f}"
+            not_detectable[name] = f"{NOT_FITTED}: {f}"
         else:
             tried.append(f)
     best = min([current, *tried], key=lambda f: f.chi2_weighted)
     for e in weighed:
         not_detectable[e.name] = e.weigh(fitter, best)
-    scored = _scorer(fitter.data.n, n_eff)
-    current = scored(current)
-    ranking = sorted((scored(f) for f in tried), key=lambda f: f.bic)
+    current = scores(current)
+    ranking = sorted((scores(f) for f in tried), key=lambda f: f.bic)
     verdict, rivals = "none", []
     if ranking and current.bic - ranking[0].bic > STRONG:
         top = ranking[0]
         rivals = [f for f in ranking[1:] if f.bic - top.bic < RIVAL and current.bic - f.bic > STRONG]
         verdict = "ambiguous" if any(f.bic - top.bic < CLOSE for f in rivals) else top.effects[-1]
     return Step(current, ranking, not_detectable, verdict, rivals)
-
-
-def _scorer(n: int, n_eff: float):
-    def scored(f: Rung) -> Rung:
-        return dataclasses.replace(f, bic=f.chi2_weighted * n_eff / n + f.n_parameters * math.log(n_eff))
-
-    return scored
 
 
 def _effective_size(fitter: Fitter, rungs) -> float:
@@ -425,10 +534,10 @@ def _effective_size(fitter: Fitter, rungs) -> float:
     return float(min(max(effective_sample_size(r), 2.0 * max(f.n_parameters for f in rungs) + 2), n))
 
 
-def _climb(fitter: Fitter, key: tuple, candidates, n_eff: float, rungs_left: int, steps: list) -> tuple:
+def _climb(fitter: Fitter, key: tuple, candidates, scores: Scores, rungs_left: int, steps: list) -> tuple:
     """Greedy climb from ``key``: add the named effect while the rung is not :func:`settled`."""
     while rungs_left > 0 and not settled(fitter.fit(key), fitter):
-        step = _examine(fitter, key, candidates, n_eff)
+        step = _examine(fitter, key, candidates, scores)
         steps.append(step)
         if step.verdict in ("none", "ambiguous"):
             if step.verdict == "ambiguous":  # the best of the close ones; the comparison is reported
@@ -439,6 +548,82 @@ def _climb(fitter: Fitter, key: tuple, candidates, n_eff: float, rungs_left: int
         key = key + (step.verdict,)
         rungs_left -= 1
     return key
+
+
+def _fittable(fitter: Fitter, key: tuple, candidates) -> list[str]:
+    """The candidates an examination of ``key`` would fit on top of it (visible, fitted, not there unless repeatable)."""
+    out = []
+    for name in candidates:
+        e = effect(name)
+        if e.stage != WEIGHED and (name not in key or e.repeatable) and e.visible(fitter.data, fitter.noise_mN) is None:
+            out.append(name)
+    return out
+
+
+def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max_rungs: int) -> dict:
+    """``{"layer+layer": why}``: the combinations not fitted by the examinations ``examined`` (every
+    explanation climbed), and those on top of the last rung ``unexamined`` that the climb reached at
+    ``max_rungs`` without examining it (None: none such)."""
+    out: dict[str, str] = {}
+    for step in examined:
+        for name, why in step.not_detectable.items():
+            if not why.startswith(NOT_FITTED):
+                continue
+            why = why[len(NOT_FITTED):].lstrip(": ")
+            why = re.sub(r"^the model \S+ could not be fitted$", "the fit failed from every start", why)
+            if not fitter.in_loop and "in the loop" in why:
+                why = ("no response surface combines these effects, and in_loop=False (--surfaces-only) switches "
+                       "off the finite-element model in the loop")
+            out.setdefault("+".join(step.rung.effects + (name,)), why)
+    if unexamined is not None:
+        for name in _fittable(fitter, unexamined, candidates):
+            out.setdefault("+".join(unexamined + (name,)),
+                           f"the climb stopped at max_rungs = {max_rungs} before examining "
+                           f"{'+'.join(unexamined) or 'the given model'}")
+    return out
+
+
+def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
+    """What the curve determines of a fitted rung (:meth:`Diagnosis.undetermined` of the last one).
+
+    Finite-element runs (:func:`~.identifiability.assess`) are made when ``fitter.in_loop`` allows
+    them and a parameter is loose by the fit's own standard deviation; :func:`diagnose` calls this
+    once, for the last rung.
+
+    Returns
+    -------
+    std : dict
+        The rung's standard deviations, those of the parameters the fit leaves loose replaced
+        by the finite-element ones where these were computed (they decide).
+    std_source : dict
+        ``{name: FROM_FIT or FROM_FE}``.
+    reasons : dict
+        ``{name: why not determined}``.
+    predictions : list of Prediction
+        The alternative measurements' predicted standard deviations (:func:`~.identifiability.assess`;
+        empty when no finite-element run was allowed or needed).
+    """
+    std = dict(rung.std)
+    source = {k: FROM_FIT for k in std}
+    loose = [k for k, v in rung.parameters.items()
+             if math.isfinite(v) and not std.get(k, math.nan) <= DETERMINED * abs(v)]
+    predictions = []
+    if loose and fitter.in_loop and rung.bound_model is not None and rung.x is not None:
+        predictions = assess(fitter, rung, (RECORDED, *ALTERNATIVES))
+        recorded = predictions.pop(0).std
+        if recorded:  # the finite-element derivatives decide (a surface's slopes can inflate an sd)
+            for k in loose:
+                if k in recorded:
+                    std[k], source[k] = float(recorded[k]), FROM_FE
+            loose = [k for k in loose if not std[k] <= DETERMINED * abs(rung.parameters[k])]
+    reasons = {k: f"{k} = {rung.parameters[k]:.3g} +- {std.get(k, math.nan):.2g}: not determined by this curve"
+                  + suggestion(k, rung.parameters[k], predictions) for k in loose}
+    for k in rung.at_bounds:
+        if at_physical_limit(rung.bound_model, rung.x, k):
+            continue
+        reasons.setdefault(k, f"{k} = {rung.fit_parameters.get(k, math.nan):.4g} at the edge of its range: "
+                              "refitted from other starts and still there")
+    return std, source, reasons, predictions
 
 
 def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, add=(), noise_mN: float | None = None,
@@ -522,31 +707,29 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
     for i in range(len(add) + 1):
         fitter.fit(add[:i])
 
-    # the first examination: the candidates on top of the given model (its n_eff from the best fit there)
+    # the first examination: the candidates on top of the given model; the effective sample size of
+    # the best fit there is that of every BIC of the diagnosis (each decision and each number reported)
     fits = [fitter.fit(add)]
-    keys = []
-    for name in candidates:
-        e = effect(name)
-        if e.stage != WEIGHED and e.visible(data, sigma) is None and (name not in add or e.repeatable):
-            keys.append(add + (name,))
+    keys = [add + (name,) for name in _fittable(fitter, add, candidates)]
     fits += [f for f in fitter.fit_all(keys).values() if not isinstance(f, ValueError)]
     n_eff = _effective_size(fitter, fits)
-    first = _examine(fitter, add, candidates, n_eff)
+    scores = Scores(data.n, n_eff)
+    first = _examine(fitter, add, candidates, scores)
     steps = [first]
+    examined = [first]  # every examination, in every explanation climbed
     branches = []
     if first.verdict != "none" and max_rungs > 0:
         named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
         heads = [first.ranking[0]] + named[:BEAM - 1]
         for head in heads:
             branch_steps = []
-            key = _climb(fitter, head.effects, candidates, n_eff, max_rungs - 1, branch_steps)
+            key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
             branches.append((key, branch_steps))
+            examined += branch_steps
     notes = []
     alternatives = []
     if branches:
-        n_eff = _effective_size(fitter, [fitter.fit(k) for k, _ in branches] + fits)
-        scored = _scorer(data.n, n_eff)
-        finals = sorted(((scored(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
+        finals = sorted(((scores(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
         best_rung, key, more = finals[0]
         steps += more
         # another explanation is a set of effects that neither contains the chosen one nor is
@@ -554,8 +737,7 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
         alternatives = [f for f, k, _ in finals[1:] if not (_contains(k, key) or _contains(key, k))]
     else:
         key = add
-    scored = _scorer(data.n, n_eff)
-    ladder = [scored(fitter.fit(key[:i])) for i in range(len(key) + 1)]
+    ladder = [scores(fitter.fit(key[:i])) for i in range(len(key) + 1)]
     missing = key[len(add):]
     verdict, confounded, suggestion = first.verdict, [], None
     if missing and len(steps) > 1:
@@ -564,8 +746,7 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
         last = next((s for s in reversed(steps[1:]) if s.ranking and s.ranking[0].effects == key), None)
         if last is not None:
             seen = {tuple(sorted(f.effects)) for f in alternatives} | {tuple(sorted(key))}
-            alternatives = alternatives + [scored(fitter.fit(f.effects)) for f in last.rivals
-                                           if tuple(sorted(f.effects)) not in seen]
+            alternatives = alternatives + [scores(f) for f in last.rivals if tuple(sorted(f.effects)) not in seen]
     if missing and explained(ladder[-1], fitter) and not settled(ladder[-1], fitter):
         # the last rung explains the curve only from the edge of a range (a layer as thin as the
         # model solves): a candidate on top of it that explains the curve as well from inside its
@@ -573,7 +754,7 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
         top = next((s for s in reversed(steps) if s.rung.effects == key), None)
         if top is not None:
             seen = {tuple(sorted(f.effects)) for f in alternatives}
-            alternatives = alternatives + [scored(f) for f in top.ranking if settled(f, fitter)
+            alternatives = alternatives + [f for f in top.ranking if settled(f, fitter)
                                            and tuple(sorted(f.effects)) not in seen]
     close = [f for f in alternatives if f.bic - ladder[-1].bic < CLOSE]
     rival_sets = sorted((f for f in alternatives if f.bic - ladder[-1].bic < RIVAL), key=lambda f: f.bic)
@@ -585,6 +766,30 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
     elif first.rivals and not missing:
         confounded = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
         suggestion = suggest_measurement(fitter, first.ranking[0], first.rivals[0])
-    return Diagnosis(data, sigma, source, data.radius_mm, ladder, first.ranking, first.not_detectable, verdict,
-                     confounded, suggestion, n_eff, notes, steps=steps, alternatives=alternatives,
-                     n_given=len(add), fitter=fitter)
+    is_explained = explained(ladder[-1], fitter)
+    if verdict == "none" and not is_explained:
+        verdict = "unexplained"  # nothing fitted helps, and the model does not explain the curve
+    # what was not tried: candidates not fitted, and those on top of a last rung the climb reached
+    # at max_rungs without examining it
+    final = ladder[-1]
+    unexamined = None
+    if not any(s.rung.effects == key for s in examined) and not settled(fitter.fit(key), fitter):
+        unexamined = key
+    untried = _untried(fitter, examined, unexamined, candidates, max_rungs)
+
+    # the last rung's standard deviations, as they decide what the curve determines (finite-element
+    # derivatives where the fit leaves a parameter loose): its one set of numbers everywhere
+    std, std_source, not_determined, predictions = determine(fitter, final)
+    if std != final.std:
+        scores.rungs[key] = dataclasses.replace(final, std=std)
+
+    def one(f):  # every rung the diagnosis holds is its model's one scored rung
+        return scores.rungs[f.effects]
+
+    steps = [dataclasses.replace(s, rung=one(s.rung), ranking=[one(f) for f in s.ranking],
+                                 rivals=[one(f) for f in s.rivals]) for s in steps]
+    return Diagnosis(data, sigma, source, data.radius_mm, [one(f) for f in ladder], steps[0].ranking,
+                     first.not_detectable, verdict, confounded, suggestion, n_eff, notes, steps=steps,
+                     alternatives=[one(f) for f in alternatives], n_given=len(add), fitter=fitter,
+                     explained=is_explained, std_source=std_source, not_determined=not_determined,
+                     untried=untried, predictions=predictions, candidates=candidates)
