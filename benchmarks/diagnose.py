@@ -76,7 +76,7 @@ print(json.dumps({"wall_s": wall, "verdict": d.verdict, "ladder": [f.model for f
 
 FE_FIT = r"""
 import json, sys, time
-from skin_indent.context import Context
+from skin_indent.runtime.context import Context
 from skin_indent.data import bundled_path
 from skin_indent.fitting.multistart import Fitter
 from skin_indent.measurement import load_csv, prepare

@@ -1,6 +1,6 @@
 #!/usr/bin/env python
 """BLAS thread oversubscription under load: default thread pools against the limits of
-``skin_indent._threads`` (issue 15).
+``skin_indent.runtime.threads`` (issue 15).
 
     python benchmarks/threads.py               # ~2-3 min on 2 cores (3 repeats)
     python benchmarks/threads.py --repeats 1   # ~1 min
@@ -19,7 +19,7 @@ process start), alternately in the two modes, median of ``--repeats``:
 
 Modes: ``default`` has no ``*_NUM_THREADS`` variable and ``SKIN_INDENT_THREADS=off``
 (every process with a full BLAS pool: the behaviour before the limits);
-``limited`` calls :func:`skin_indent._threads.configure_threads` first, as the CLI
+``limited`` calls :func:`skin_indent.runtime.threads.configure_threads` first, as the CLI
 does, and the executors give their workers one thread each.
 
 Load: while the cases run, ``--burners`` processes (default: one per CPU) spin in a
@@ -44,7 +44,7 @@ from pathlib import Path
 
 from _bench import HERE, ROOT, write_results
 
-from skin_indent._threads import SETTING_ENV, THREAD_ENV_VARS
+from skin_indent.runtime.threads import SETTING_ENV, THREAD_ENV_VARS
 
 CHIARO = ROOT / "tests" / "data" / "real-data" / "chiaro_AEBP1_R27.5um.csv"
 CHIARO_R_MM = 0.0275
@@ -108,7 +108,7 @@ PRIMARY = {"chiaro": ("contact_scan_s", "fit_s", "scan_plus_fit_s"), "build": ("
 def child(case: str, mode: str, cache: Path) -> None:
     """One timed case in this (fresh) process; prints one JSON line."""
     if mode == "limited":
-        from skin_indent._threads import configure_threads
+        from skin_indent.runtime.threads import configure_threads
 
         configure_threads()
     import threadpoolctl

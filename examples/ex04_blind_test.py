@@ -42,7 +42,7 @@ import numpy as np
 
 from skin_indent.inverse import fit_ekf, fit_ekf_paper, fit_least_squares, format_table, run_blind_tests
 from skin_indent.mechanics import NeoHooke, SphericalIndenter
-from skin_indent.plotting import plot_first_pass, plot_sweep_history
+from skin_indent.report.paper import plot_first_pass, plot_sweep_history
 from skin_indent.response_surface import ResponseSurface, SurfaceGrid, default_settings
 from skin_indent.simulate import simulate
 

@@ -36,7 +36,7 @@ from skin_indent.data import bundled_path
 from skin_indent.fitting import identify
 from skin_indent.inverse import estimate_noise, hertz_equivalence, profile
 from skin_indent.measurement import load_csv, prepare
-from skin_indent.plotting import plot_fit, plot_residuals, plot_sweep_history
+from skin_indent.report.paper import plot_fit, plot_residuals, plot_sweep_history
 from skin_indent.response_surface import ResponseSurface, SurfaceGrid, default_settings
 
 R = 6.22  # mm

@@ -9,10 +9,10 @@ A folder of curves in, a table and a figure out
      records;
    * that the response surfaces are built (or found in the cache) once, before the fits,
      and shared by all the curves: one unit-radius surface serves every radius;
-   * how to write the table (:func:`~skin_indent.batch.write_tsv`, one row per curve with
+   * how to write the table (:func:`~skin_indent.report.batch_table.write_tsv`, one row per curve with
      a provenance header: package version, command, each input's sha256, settings,
-     surfaces), the summary figure (:func:`~skin_indent.batch.summary_figure`) and a plot
-     of one fit (:func:`~skin_indent.fit_plot.plot_fit`);
+     surfaces), the summary figure (:func:`~skin_indent.report.batch_table.summary_figure`) and a plot
+     of one fit (:func:`~skin_indent.report.fit_figure.plot_fit`);
    * how to read the quality columns: the misfit against a noise level independent of
      the model, and the verdict.
 
@@ -39,10 +39,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 from skin_indent import Context
-from skin_indent.batch import fit_many, summary_figure, write_tsv
+from skin_indent.batch import fit_many
+from skin_indent.report.batch_table import summary_figure, write_tsv
 from skin_indent.data import bundled_path
-from skin_indent.fit_plot import plot_fit
-from skin_indent.provenance import read_provenance
+from skin_indent.report.fit_figure import plot_fit
+from skin_indent.runtime.provenance import read_provenance
 
 CACHE = Context(cache_dir=Path(tempfile.gettempdir()) / "skin_indent_gallery")
 folder = Path(tempfile.mkdtemp()) / "curves"
@@ -84,7 +85,7 @@ print("unit-radius surface of each curve:", {r.label: r.surface[:12] for r in ro
 # %%
 # The summary figure and one fit
 # ------------------------------
-# :func:`~skin_indent.batch.summary_figure` and :func:`~skin_indent.fit_plot.plot_fit`
+# :func:`~skin_indent.report.batch_table.summary_figure` and :func:`~skin_indent.report.fit_figure.plot_fit`
 # write PNG files (matplotlib without pyplot, so they work on a server); here they are
 # shown as images. The fit plot marks the contact point (dotted) and the fitted range
 # (shaded); the residual is drawn against twice the noise.

@@ -5,7 +5,7 @@ pyproject.toml; ``-n 0`` runs it in one process). Here:
 
 - every test process uses one BLAS thread (this one, each xdist worker, which inherits the
   environment set here before numpy loads, and the subprocesses tests start): the package's
-  own policy (:func:`skin_indent._threads.configure_threads`); two workers with a full BLAS
+  own policy (:func:`skin_indent.runtime.threads.configure_threads`); two workers with a full BLAS
   pool each would fight over the two cores;
 - :func:`build_once` runs an expensive build (response surfaces into a shared cache) once per
   test run: the first worker that needs it builds under a lock, a second one waits and then
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import pytest
 
-from skin_indent._threads import configure_threads
+from skin_indent.runtime.threads import configure_threads
 
 configure_threads()  # before numpy loads (``_data`` imports it): inherited by xdist workers
 

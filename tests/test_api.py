@@ -126,7 +126,7 @@ def test_written_files_are_readable_by_others(tmp_path):
     import os
     import stat
 
-    from skin_indent._atomic import atomic_write
+    from skin_indent.runtime.atomic import atomic_write
 
     old = os.umask(0o022)
     try:

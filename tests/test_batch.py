@@ -1,4 +1,4 @@
-"""Many curves at a time (skin_indent.batch), plots of a fit (skin_indent.fit_plot), provenance.
+"""Many curves at a time (skin_indent.batch), plots of a fit (skin_indent.report.fit_figure), provenance.
 
 A folder of small synthetic AFM-like curves (finite-element curves of the coarse mesh,
 R = 20 um, contact past the first samples, a force baseline and noise) plus two bad files
@@ -17,11 +17,12 @@ import pytest
 from _data import DATA
 
 from skin_indent import NeoHooke, SphericalIndenter, simulate
-from skin_indent.batch import TSV_COLUMNS, BatchRow, expand_paths, fit_many, summary_figure, write_tsv
-from skin_indent.context import Context
-from skin_indent.fit_plot import fit_arrays, plot_fit, write_fit_csv
+from skin_indent.batch import TSV_COLUMNS, BatchRow, expand_paths, fit_many
+from skin_indent.report.batch_table import summary_figure, write_tsv
+from skin_indent.runtime.context import Context
+from skin_indent.report.fit_figure import fit_arrays, plot_fit, write_fit_csv
 from skin_indent.measurement import load_csv
-from skin_indent.provenance import (file_identity, provenance, provenance_comment_lines, read_provenance,
+from skin_indent.runtime.provenance import (file_identity, provenance, provenance_comment_lines, read_provenance,
                                     with_provenance)
 
 MAP = DATA / "instrument-files" / "fmt-jpk-fd_map-data-reference-points.jpk-force-map"

@@ -22,7 +22,8 @@ import pytest
 from _data import DATA
 
 from skin_indent.data import bundled_path
-from skin_indent.diagnosis import diagnose, write_report
+from skin_indent.diagnosis import diagnose
+from skin_indent.report import write_report
 from skin_indent.effects import EFFECTS
 from skin_indent.diagnosis.workflow import STRONG
 from skin_indent.inverse import fit_least_squares
@@ -85,7 +86,7 @@ def _stiffening_surface(cache):
     """The stiffening surface that diagnosis builds for a 0.6 mm curve (same runs, from the cache)."""
     from skin_indent.fitting.surfaces import EFFECT_NU
     from skin_indent.response_surface import SurfaceGrid
-    from skin_indent.response_surface.effect_surface import EffectSurface, default_axes
+    from skin_indent.models.effect_surface import EffectSurface, default_axes
 
     grid = SurfaceGrid(np.linspace(0.006, 0.6, 100), np.geomspace(0.1, 100.0, 8), np.array(EFFECT_NU))
     return EffectSurface.build(("stiffening",), default_axes("stiffening", 0.6), grid, mesh="coarse",
@@ -264,7 +265,7 @@ def test_separating_measurement_runs_in_workers_as_in_process():
     a model whose runs fail leaves its scenario out instead of failing the suggestion."""
     from types import SimpleNamespace
 
-    from skin_indent.context import Context
+    from skin_indent.runtime.context import Context
     from skin_indent.diagnosis.evidence import _forward_differences
     from skin_indent.effects import Model
 

@@ -18,7 +18,7 @@ import pytest
 from skin_indent.mechanics.solver import ConvergenceError
 from skin_indent.response_surface import (DASK_MISSING, InProcess, LocalProcesses, ResponseSurface, SurfaceGrid,
                                           default_settings, make_executor, run_batch)
-from skin_indent.response_surface import _executors
+from skin_indent.runtime import executors as _executors
 
 R_MM = 6.22
 SETTINGS = {"model": "stand-in", "radius_mm": R_MM, "code_version": "test"}
@@ -213,7 +213,7 @@ def test_malloc_tuning_only_where_dasks_nanny_set_the_trim_threshold():
     """Dask's nanny sets MALLOC_TRIM_THRESHOLD_, which slows the FE model ~1.8x; tune_malloc undoes it."""
     import subprocess
 
-    code = "from skin_indent.response_surface._executors import tune_malloc; print(tune_malloc(), tune_malloc())"
+    code = "from skin_indent.runtime.executors import tune_malloc; print(tune_malloc(), tune_malloc())"
     src = str(Path(__file__).parents[1] / "src")
     for env, expected in [({"MALLOC_TRIM_THRESHOLD_": "65536"}, "True False"), ({}, "False False"),
                           ({"MALLOC_TRIM_THRESHOLD_": "65536", "MALLOC_MMAP_THRESHOLD_": "1048576"}, "False False")]:

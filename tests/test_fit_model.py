@@ -36,7 +36,7 @@ def cache(gallery_cache, diagnosis_surfaces):
 
 
 def _context(cache):
-    from skin_indent.context import Context
+    from skin_indent.runtime.context import Context
 
     return Context(cache_dir=cache, workers=2, progress=False)
 
@@ -197,8 +197,9 @@ def test_cli_fits_a_chosen_model_with_a_held_thickness_and_a_prior(cache, capsys
 
 
 def test_a_batch_of_a_chosen_model_tabulates_its_parameters(cache, tmp_path, monkeypatch):
-    from skin_indent.batch import fit_many, write_tsv
-    from skin_indent.context import Context
+    from skin_indent.batch import fit_many
+    from skin_indent.report.batch_table import write_tsv
+    from skin_indent.runtime.context import Context
 
     folder = tmp_path / "curves"
     folder.mkdir()
@@ -220,7 +221,7 @@ def test_a_batch_of_a_chosen_model_tabulates_its_parameters(cache, tmp_path, mon
 
 
 def test_a_load_unload_fit_of_a_chosen_model_is_plotted_and_tabulated_whole(hidden, cache, tmp_path):
-    from skin_indent.fit_plot import fit_arrays, plot_fit, write_fit_csv
+    from skin_indent.report.fit_figure import fit_arrays, plot_fit, write_fit_csv
     from skin_indent.measurement import load_csv
 
     r = fit(hidden["v06_viscoelastic"], model="neo-hooke+viscoelastic", noise_mN=NOISE, context=_context(cache),

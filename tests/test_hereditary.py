@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from skin_indent.analytic import hertz_force, ting_ramp_force
-from skin_indent.response_surface.hereditary import hereditary_force, relaxation_weights
+from skin_indent.effects.hereditary import hereditary_force, relaxation_weights
 
 R, E, NU = 6.22, 10.0, 0.45
 

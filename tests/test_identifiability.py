@@ -229,7 +229,7 @@ def test_alternatives_side_by_side_start_their_workers_in_the_main_thread(shallo
     those made one after the other in this process."""
     import threading
 
-    from skin_indent.context import Context
+    from skin_indent.runtime.context import Context
 
     fitter, rung = shallow.fitter, shallow.current
     serial = idf.assess(fitter, rung)

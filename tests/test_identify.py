@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from skin_indent.context import Context
+from skin_indent.runtime.context import Context
 from skin_indent.fitting import identify, surface_for
 from skin_indent.measurement import prepare
 from skin_indent.inverse import fit_ekf, fit_least_squares, format_table, run_blind_tests

@@ -21,7 +21,7 @@ from skin_indent.protocol import Protocol
 @pytest.fixture(scope="module")
 def ctx(gallery_cache, diagnosis_surfaces):
     """The gallery's cache, where the coarse diagnosis surfaces are built once per run."""
-    from skin_indent.context import Context
+    from skin_indent.runtime.context import Context
 
     return Context(cache_dir=gallery_cache, workers=2)
 

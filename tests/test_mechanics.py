@@ -437,6 +437,6 @@ def test_mesh_convergence_over_the_family_and_uniform_refinement(reference_curve
 
 
 def _named(mesh, L):
-    from skin_indent.mechanics.mesh import _with_named_boundaries
+    from skin_indent.mechanics.mesh import with_named_boundaries
 
-    return _with_named_boundaries(mesh, L)
+    return with_named_boundaries(mesh, L)

@@ -370,7 +370,7 @@ def test_effect_surface_spline_weights_are_the_spline(n_nodes):
     (linear in the node values): the same numbers as the spline built over all the values."""
     from scipy.interpolate import make_interp_spline
 
-    from skin_indent.response_surface.effect_surface import _spline_weights
+    from skin_indent.models.effect_surface import _spline_weights
 
     rng = np.random.default_rng(n_nodes)
     nodes = np.sort(rng.uniform(-2.0, 3.0, n_nodes))

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from skin_indent.response_surface import LocalProcesses, ResponseSurface, RunStore, SurfaceGrid
-from skin_indent.response_surface._cache import _run_key
+from skin_indent.response_surface._cache import run_key
 
 SRC = str(Path(__file__).parents[1] / "src")
 SETTINGS = {"model": "slow stand-in", "radius_mm": 6.22, "code_version": "test"}
@@ -89,7 +89,7 @@ def start_build(tmp_path, moddir, *, cache, out, log, delay, workers=1, go=None)
 
 
 def run_dir(cache: Path) -> Path:
-    return cache / "runs" / _run_key(SETTINGS, GRID.depth_mm)[:24]
+    return cache / "runs" / run_key(SETTINGS, GRID.depth_mm)[:24]
 
 
 def manifest_runs(cache: Path) -> dict:
@@ -252,7 +252,7 @@ def test_two_processes_build_into_one_cache(tmp_path, curve_module):
 def test_a_run_finished_elsewhere_meanwhile_is_read_not_computed(tmp_path, curve_module):
     """Tasks are taken lazily: before each run the manifest is checked again."""
     _, mod = curve_module
-    key = _run_key(SETTINGS, GRID.depth_mm)
+    key = run_key(SETTINGS, GRID.depth_mm)
     other = RunStore(run_dir(tmp_path), key, SETTINGS, GRID.depth_mm)  # "another process"
     nus = GRID.nu.tolist()
     calls = []
@@ -276,7 +276,7 @@ def _record_many(run_dir_, key, nus, values):
 
 def test_manifest_updates_are_not_lost_under_contention(tmp_path):
     """Two processes list 40 runs each, interleaved: a read-modify-write without the lock loses some."""
-    key = _run_key(SETTINGS, GRID.depth_mm)
+    key = run_key(SETTINGS, GRID.depth_mm)
     ctx = multiprocessing.get_context("fork")
     nus = np.linspace(0.1, 0.45, 80).tolist()
     values = np.linspace(1, 2, GRID.depth_mm.size)
@@ -293,7 +293,7 @@ def test_manifest_updates_are_not_lost_under_contention(tmp_path):
 
 
 def test_a_finished_run_is_never_replaced_by_a_failure(tmp_path):
-    key = _run_key(SETTINGS, GRID.depth_mm)
+    key = run_key(SETTINGS, GRID.depth_mm)
     a = RunStore(tmp_path, key, SETTINGS, GRID.depth_mm)
     b = RunStore(tmp_path, key, SETTINGS, GRID.depth_mm)
     a.record_done(0.3, np.ones(GRID.depth_mm.size))
@@ -328,7 +328,7 @@ def test_killed_fe_build_resumes(tmp_path):
     args = [json.dumps([grid.depth_mm.tolist(), grid.E_kPa.tolist(), grid.nu.tolist()]), json.dumps(settings),
             str(cache)]
     proc = subprocess.Popen([sys.executable, "-c", FE_SCRIPT, *args], env=env, start_new_session=True)
-    manifest = cache / "runs" / _run_key(settings, grid.depth_mm)[:24] / "manifest.json"
+    manifest = cache / "runs" / run_key(settings, grid.depth_mm)[:24] / "manifest.json"
     deadline = time.monotonic() + 300
     while not (manifest.exists() and len(json.loads(manifest.read_text())["runs"]) >= 2):
         assert proc.poll() is None and time.monotonic() < deadline

@@ -1,4 +1,4 @@
-"""BLAS thread limits (skin_indent._threads): one thread per worker process, and in the CLI's process.
+"""BLAS thread limits (skin_indent.runtime.threads): one thread per worker process, and in the CLI's process.
 
 On a loaded machine a full BLAS thread pool per process makes small problems fight over
 the cores (the contact scan of the Chiaro curve: 5.2 s instead of 0.07 s); see
@@ -13,9 +13,9 @@ import sys
 import pytest
 import threadpoolctl
 
-from skin_indent._threads import THREAD_ENV_VARS, configure_threads, limit_threads, main_threads
+from skin_indent.runtime.threads import THREAD_ENV_VARS, configure_threads, limit_threads, main_threads
 from skin_indent.response_surface import LocalProcesses
-from skin_indent.response_surface._executors import available_cpus
+from skin_indent.runtime.executors import available_cpus
 
 TWO_CORES = pytest.mark.skipif(available_cpus() < 2, reason="a default of 1 BLAS thread cannot show a limit")
 
@@ -112,7 +112,7 @@ def test_main_threads_setting(monkeypatch):
 @TWO_CORES
 def test_configure_threads_before_and_after_blas_loads():
     """What the CLI calls first: numpy's BLAS, loaded, gets the limit; scipy's, loaded later, starts with it."""
-    code = ("import numpy; from skin_indent._threads import configure_threads; n = configure_threads()\n"
+    code = ("import numpy; from skin_indent.runtime.threads import configure_threads; n = configure_threads()\n"
             "import scipy.linalg, threadpoolctl\n"
             "info = [i for i in threadpoolctl.threadpool_info() if i['user_api'] == 'blas']\n"
             "print(n, len(info), sorted({i['num_threads'] for i in info}))")

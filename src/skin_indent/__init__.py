@@ -56,14 +56,14 @@ _EXPORTS = {
     "register_effect": "skin_indent.effects",
     "ResponseSurface": "skin_indent.response_surface",
     "SurfaceGrid": "skin_indent.response_surface",
-    "Context": "skin_indent.context",
+    "Context": "skin_indent.runtime.context",
     "fit": "skin_indent.fitting",
     "identify": "skin_indent.fitting",
     "surface_for": "skin_indent.fitting",
     "CurveFit": "skin_indent.fitting",
     "diagnose": "skin_indent.diagnosis",
     "Diagnosis": "skin_indent.diagnosis",
-    "write_report": "skin_indent.diagnosis",
+    "write_report": "skin_indent.report",
 }
 # top-level name -> the name in its module (the mechanics' ``Layer`` and ``Viscoelastic`` are a
 # layer of a sample and a material law; at the top level ``layer`` and ``viscoelastic`` are effects)

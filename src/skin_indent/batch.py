@@ -30,6 +30,18 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
+from .fitting import fit
+from .fitting import surface_for
+from .fitting.model_fit import MAX_POINTS, parse_model
+from .fitting.surfaces import SIMILARITY_RATIOS
+from .measurement import MeasurementError
+from .measurement import SEGMENTS, load_curve, load_curves, prepare
+from .report.batch_table import summary_figure, write_tsv
+from .report.fit_figure import plot_fit, write_fit_csv
+from .runtime.context import Context, context_of
+from .runtime.executors import make_executor
+from .runtime.json_io import jsonable
+from .runtime.provenance import provenance as make_provenance
 
 __all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expand_paths", "fit_many",
            "summary_figure", "write_tsv"]
@@ -155,8 +167,6 @@ class BatchRow:
 
     def to_dict(self) -> dict:
         """The row as a JSON-safe dict (without ``fit``)."""
-        from ._json import jsonable
-
         out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "fit"}
         out["flags"] = list(self.flags)
         out["parameters"], out["std"] = dict(self.parameters), dict(self.std)
@@ -174,11 +184,14 @@ class BatchResult(list):
     Attributes
     ----------
     provenance : dict
-        How they were made (:func:`skin_indent.provenance.provenance`): the inputs with
+        How they were made (:func:`skin_indent.runtime.provenance.provenance`): the inputs with
         their sha256, the settings and the surfaces.
     surfaces : list
         The response surfaces used.
     """
+
+    #: the columns of :func:`~skin_indent.report.batch_table.write_tsv`
+    columns = TSV_COLUMNS
 
     def __init__(self, rows=(), provenance=None, surfaces=()):
         super().__init__(rows)
@@ -204,8 +217,6 @@ class BatchResult(list):
 # ------------------------------------------------------------------ helpers
 def _one_line(err: BaseException) -> str:
     """A one-line message: the text of the package's own errors, ``Type: text`` of others."""
-    from .measurement import MeasurementError
-
     text = " ".join(str(err).split())
     if isinstance(err, (MeasurementError, ValueError)) and text:
         return text
@@ -262,8 +273,6 @@ def _map_position(measurement) -> dict:
 
 def _needed_depth(prepared) -> float:
     """The depth :func:`skin_indent.fitting.fit` asks of a surface for this curve (mm)."""
-    from .fitting.surfaces import SIMILARITY_RATIOS
-
     depth = prepared.max_indentation_mm
     if prepared.contact_mode == "fit":
         depth = max(depth, min(1.5 * depth, SIMILARITY_RATIOS[-1] * prepared.radius_mm))
@@ -271,8 +280,6 @@ def _needed_depth(prepared) -> float:
 
 
 def _surface_key(radius_mm: float, depth_mm: float):
-    from .fitting.surfaces import SIMILARITY_RATIOS
-
     ratio = depth_mm / radius_mm
     return radius_mm, next((r for r in SIMILARITY_RATIOS if ratio <= r * (1 + 1e-9)), None)
 
@@ -284,8 +291,6 @@ def _surface_hash(surface) -> str:
 
 def _fit_task(prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, context=None, mesh=None):
     """One fit in a worker: ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
-    from .fitting import fit
-
     try:
         if model is not None:
             return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh), None
@@ -362,7 +367,7 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
     keep_fits : bool
         Keep each :class:`~skin_indent.fitting.CurveFit` in its row (``row.fit``).
     plot_dir : path, optional
-        Write a plot (:func:`skin_indent.fit_plot.plot_fit`, ``NAME_INDEX.png``) and a
+        Write a plot (:func:`skin_indent.report.fit_figure.plot_fit`, ``NAME_INDEX.png``) and a
         CSV of depth, force, model and residual (``NAME_INDEX.csv``) per fitted curve
         into this folder, each with its provenance.
     command : sequence of str, optional
@@ -382,15 +387,10 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
 
     Examples
     --------
-    >>> from skin_indent.context import Context
+    >>> from skin_indent.runtime.context import Context
     >>> rows = fit_many("curves/", radius_mm=0.02, context=Context(workers=2))  # doctest: +SKIP
     >>> write_tsv(rows, "results.tsv")                                           # doctest: +SKIP
     """
-    from .context import context_of
-    from .measurement import load_curve, load_curves, prepare
-    from .provenance import provenance as make_provenance
-    from .response_surface._executors import make_executor
-
     fixed = dict(fixed or {})
     if "contact_point_mm" in fixed:
         fixed["offset_mm"] = fixed.pop("contact_point_mm")
@@ -440,8 +440,6 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         else:
             depth = max(_needed_depth(rows[i][1]) for i in members)
             try:
-                from .fitting import surface_for
-
                 s = surface_for(radius, depth, context=ctx, mesh=mesh)
             except Exception as err:  # noqa: BLE001 - the curves of this group fail, the others go on
                 message = f"response surface for R = {radius:g} mm: {_one_line(err)}"
@@ -487,12 +485,6 @@ def _fit_many_model(files, model, priors, *, index, radius_mm, fixed, mesh, ctx,
                     command) -> BatchResult:
     """:func:`fit_many` of a chosen model: each curve prepared as the diagnosis prepares it and fitted
     with :func:`skin_indent.fitting.fit` (``model=``) in a worker, whose surfaces go to the shared cache."""
-    from .context import Context
-    from .fitting.model_fit import MAX_POINTS, parse_model
-    from .measurement import SEGMENTS, load_curve, load_curves, prepare
-    from .provenance import provenance as make_provenance
-    from .response_surface._executors import make_executor
-
     parse_model(model)  # one line for a bad model, before any file is read
     mesh = "coarse" if mesh is None else mesh
     rows: list = []
@@ -549,8 +541,6 @@ def _fields(row: BatchRow) -> dict:
 
 def _write_plots(row: BatchRow, result, plot_dir, prov) -> BatchRow:
     """The plot and CSV of one fit; a failure to write becomes a flag of the row, not an error."""
-    from .fit_plot import plot_fit, write_fit_csv
-
     name = _plot_name(row)
     one = {**prov, "inputs": [i for i in prov.get("inputs", ())
                               if i.get("path") == os.path.abspath(row.file)] or prov.get("inputs", []),
@@ -563,5 +553,3 @@ def _write_plots(row: BatchRow, result, plot_dir, prov) -> BatchRow:
     return row
 
 
-# the table and the figure of a batch (re-exported: skin_indent.batch.write_tsv, summary_figure)
-from .batch_output import summary_figure, write_tsv  # noqa: E402

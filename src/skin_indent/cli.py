@@ -163,7 +163,7 @@ def _run_surface_build(args) -> int:
 
     from .mechanics.contact import SphericalIndenter
     from .response_surface import SurfaceGrid, parse_range
-    from .context import Context
+    from .runtime.context import Context
     from .fitting import surface_for
 
     SphericalIndenter(args.radius)  # validates the radius
@@ -328,7 +328,7 @@ def _fit_settings(args, fixed, window, priors=None) -> dict:
 
 
 def _run_fit(args) -> int:
-    from .context import Context
+    from .runtime.context import Context
     from .measurement import load_curves
 
     _positive_radius(args.radius)
@@ -380,7 +380,7 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     """One curve: the report (or JSON), errors as one line (exit 2), flags as warnings."""
     from .fitting import fit
     from .measurement import SEGMENTS, prepare
-    from .provenance import provenance
+    from .runtime.provenance import provenance
 
     chosen = args.model is not None or bool(args.priors)
     if chosen:
@@ -417,11 +417,11 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
 
 def _fit_output(args, path, result, prov) -> int:
     """Write the plots, print the report or JSON and the flags; the exit status."""
-    from ._json import dumps
-    from .provenance import with_provenance
+    from .runtime.json_io import dumps
+    from .runtime.provenance import with_provenance
 
     if args.plot is not None:
-        from .fit_plot import plot_fit, write_fit_csv
+        from .report.fit_figure import plot_fit, write_fit_csv
 
         args.plot.mkdir(parents=True, exist_ok=True)
         plot_fit(result, args.plot / f"{path.stem}.png")
@@ -441,8 +441,9 @@ def _fit_output(args, path, result, prov) -> int:
 
 def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     """Every curve of every file: one line (or TSV row) per curve; a bad file is a row, never the end."""
-    from ._json import dumps
-    from .batch import fit_many, summary_figure, write_tsv
+    from .runtime.json_io import dumps
+    from .batch import fit_many
+    from .report.batch_table import summary_figure, write_tsv
 
     if args.model is not None or args.priors:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, fixed=fixed, mesh=args.mesh,
@@ -513,9 +514,10 @@ def _add_diagnose(sub):
 
 
 def _run_diagnose(args) -> int:
-    from ._json import dumps
-    from .context import Context
-    from .diagnosis import diagnose, write_report
+    from .runtime.json_io import dumps
+    from .runtime.context import Context
+    from .diagnosis import diagnose
+    from .report import write_report
     from .measurement import load_curve
 
     _positive_radius(args.radius)
@@ -591,7 +593,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        from ._threads import configure_threads
+        from .runtime.threads import configure_threads
 
         configure_threads()  # BLAS threads: 1 per process, or SKIN_INDENT_THREADS=N|off
         return args.run(args)

@@ -23,8 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from .data import bundled_path
-from .context import Context
-from .diagnosis import diagnose, write_report
+from .runtime.context import Context
+from .diagnosis import diagnose
+from .report import write_report
 from .fitting import PAPER_TOLERANCE, identify, surface_for
 from .measurement import load_csv, prepare
 
@@ -114,7 +115,7 @@ def _figure(data, surface, results, noise, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .plotting import plot_first_pass, plot_fit, plot_residuals, plot_sweep_history
+    from .report.paper import plot_first_pass, plot_fit, plot_residuals, plot_sweep_history
 
     d, F = data.depth_mm, data.force_mN
     models = {m: surface.force(d, np.array([r.parameters["E_kPa"], r.parameters["nu"]])) for m, r in results.items()}

@@ -26,6 +26,9 @@ from .mechanics.materials import Material, NeoHooke
 from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh
 from .mechanics.solver import IndentationProblem, NewtonReport
 from .protocol import Protocol
+from .mechanics.fields import write_vtu
+from .mechanics.sensitivity import DirectSensitivity
+from .mechanics.sensitivity import check_differentiable
 
 #: Dimensionless contact penalty: epsilon = PENALTY * E / sqrt(R h_max) (kPa/mm),
 #: i.e. ~1e3 E / s0 on the medium mesh. Keeps the penetration below 0.07% of the
@@ -103,7 +106,6 @@ class ForceDepthCurve:
         """Write the deformed mesh and fields at the deepest depth (needs ``keep_state=True``)."""
         if self._state is None:
             raise ValueError("no field state kept: call simulate(..., keep_state=True)")
-        from .mechanics.fields import write_vtu
 
         problem, u, depth = self._state
         return write_vtu(problem, u, depth, path)
@@ -207,8 +209,10 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     increments : int, optional
         Number of solved increments for path-independent (elastic, frictionless)
         laws, geometrically spaced from ``min(h_1, h_max / 100)`` to ``h_max``
-        (default ``DEFAULT_INCREMENTS`` = 12); the force at the output depths is
-        interpolated.
+        (default ``DEFAULT_INCREMENTS`` = 12), plus, for layers on a rigid base pressed
+        beyond 0.4 of their thickness, the depths of
+        :meth:`~skin_indent.mechanics.layers.LayeredSample.squeeze_depths_mm`; the force at
+        the output depths is interpolated.
     solve_at_outputs : bool
         Solve equilibrium exactly at the output depths instead.
     protocol : Protocol, optional
@@ -258,8 +262,6 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     if not (isinstance(offset_mm, (int, float, np.floating)) and math.isfinite(offset_mm)):
         raise ValueError(f"offset must be a finite number in mm, got {offset_mm!r}")
     if sensitivities:
-        from .mechanics.sensitivity import check_differentiable
-
         check_differentiable(material, contact)
     if offset_mm != 0.0:
         return _simulate_with_offset(material, indenter, depth_mm, points, float(offset_mm), protocol, mesh=mesh,
@@ -285,6 +287,8 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         # geometric spacing: dense where F changes fastest (relatively), and a constant
         # depth ratio lets the self-similar predictor work (see mechanics.predictor)
         solved = np.geomspace(min(depths[0], depths[-1] / 100.0), depths[-1], int(n_solve))
+        if isinstance(material, LayeredSample):  # a layer squeezed on a rigid base: where F steepens
+            solved = np.union1d(solved, material.squeeze_depths_mm(depths[-1]))
     cb = (lambda i: progress(i, solved.size)) if progress else None
     sens = _direct_sensitivity(problem, material, solved.size) if sensitivities else None
     forces, u, report = problem.solve(solved, progress=cb, on_converged=sens)
@@ -304,8 +308,6 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
 
 
 def _direct_sensitivity(problem, material, n_depths):
-    from .mechanics.sensitivity import DirectSensitivity
-
     return DirectSensitivity(problem, material, n_depths)
 
 

@@ -13,9 +13,8 @@ candidate effects are the registered ones (:mod:`skin_indent.effects`).
 """
 
 from ..fitting.multistart import MODEL_ERROR, Rung
-from .report import write_report
 from ..inverse.residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
 from .workflow import Diagnosis, diagnose
 
 __all__ = ["MODEL_ERROR", "Diagnosis", "ResidualAnalysis", "Rung", "analyse_residuals", "describe_structure",
-           "diagnose", "effective_sample_size", "write_report"]
+           "diagnose", "effective_sample_size"]

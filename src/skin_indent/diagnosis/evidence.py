@@ -7,6 +7,9 @@ import dataclasses
 import numpy as np
 
 from ..effects import DEPTH, HISTORY, effect
+from ..effects import Model
+from ..models import ComposedModel
+from ..response_surface import make_executor
 
 #: length of the suggested hold at the deepest point, s
 HOLD_S = 30.0
@@ -14,15 +17,11 @@ HOLD_S = 30.0
 
 def _model_force(effects: tuple, radius_mm: float, theta: dict, depth_mm: float) -> np.ndarray:
     """Force (mN) of a forward FE run (coarse mesh) of ``effects`` with ``theta`` (a worker task)."""
-    from ..effects import Model
-
     return Model(effects, radius_mm).simulate(theta, depth_mm, mesh="coarse").force_mN
 
 
 def _run_task(a, radius_mm, depth_mm) -> tuple:
     """Arguments of :func:`_model_force` for the fitted model ``a`` (contact shift left out)."""
-    from ..effects import Model
-
     effects = tuple(e for e in a.effects if effect(e).stage != DEPTH)
     names = Model(effects, radius_mm).parameter_names
     return effects, radius_mm, {k: v for k, v in a.parameters.items() if k in names}, depth_mm
@@ -32,8 +31,6 @@ def _forward_differences(fitter, a, b, scenarios: dict) -> dict:
     """``{label: max |F_a - F_b| (mN)}`` over forward FE runs of the two fitted models, for each
     ``label: (radius_mm, depth_mm)`` of ``scenarios``; the runs go to the diagnosis' workers.
     A scenario whose runs fail is left out."""
-    from ..response_surface import make_executor
-
     tasks = [((label, k), _run_task(f, radius, depth))
              for label, (radius, depth) in scenarios.items() for k, f in enumerate((a, b))]
     context = getattr(fitter, "context", None)
@@ -61,7 +58,6 @@ def _hold_difference(fitter, a, b) -> float:
         d, depth_mm=np.r_[d.depth_mm[:end], np.full(30, d.depth_mm[end - 1])],
         force_mN=np.r_[d.force_mN[:end], np.full(30, d.force_mN[end - 1])],
         time_s=np.r_[d.time_s[:end], t_hold], kind=np.r_[d.kind[:end], np.full(30, "hold")])
-    from ..models import ComposedModel
 
     out = []
     for f in (a, b):

@@ -22,7 +22,7 @@ standard deviations follow by the rung's own transformation
 (:meth:`~skin_indent.models.ComposedModel.reported`).
 
 It also says when a fit parameter on a face of its range stands at a physical limit
-(:func:`at_physical_limit`: a rigid base, a nearly incompressible material) rather than
+(:func:`~skin_indent.models.composed.at_physical_limit`: a rigid base, a nearly incompressible material) rather than
 at the edge of what the fit could reach.
 """
 
@@ -34,6 +34,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..effects import ELASTIC
+from ..inverse.result import jacobian_covariance
+from ..models import ComposedModel
+from ..models.fe_core import FECore
 
 #: a parameter is determined when its standard deviation is below this fraction of its value
 DETERMINED = 0.5
@@ -188,10 +193,6 @@ def alternative_model(rung, h_mm, radius_factor: float, depth_factor: float, *, 
     ValueError
         The alternative's model does not have the rung's parameters.
     """
-    from ..effects import ELASTIC
-    from ..models import ComposedModel
-    from ..models.fe_core import FECore
-
     model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
     data = alternative_data(model.data, h_mm, radius_factor, depth_factor, force_mN=rung.prediction_mN)
     reach = depth_factor * float(np.max(h_mm))
@@ -240,8 +241,6 @@ def reported_std(model, x, J, sigma, free) -> dict:
         ``{reported parameter: standard deviation}`` from cov = (J^T W J)^-1, W = diag(1 / sigma^2)
         (``inf`` where the Jacobian is rank deficient).
     """
-    from ..inverse.result import jacobian_covariance
-
     free = list(free)
     unscaled, _ = jacobian_covariance(np.asarray(J, dtype=float)[:, free] / np.asarray(sigma, dtype=float)[:, None])
     cov = np.zeros((x.size, x.size))
@@ -472,69 +471,3 @@ def suggestion(name: str, value: float, predictions) -> str:
 
 
 # ----------------------------------------------------------------------------- physical limits
-def declared_parameters(model) -> dict:
-    """The declared parameters of a fitted model: the core's
-    (:data:`~skin_indent.effects.BASE_PARAMETERS`) and every effect's.
-
-    Parameters
-    ----------
-    model : ComposedModel
-        A fitted model (its ``effects``).
-
-    Returns
-    -------
-    dict
-        ``{model parameter name: EffectParameter}``.
-    """
-    from ..effects import BASE_PARAMETERS
-
-    out = {p.name: p for p in BASE_PARAMETERS}
-    for e in model.effects:
-        out.update({p.name: p for p in e.parameters})
-    return out
-
-
-def at_physical_limit(model, x, name: str) -> bool:
-    """The fit parameter ``name``, on a face of its range, stands at a physical limit.
-
-    The face is a physical limit when, moving inward from it, a model parameter moves
-    away from the end of its range that its
-    :attr:`~skin_indent.effects.EffectParameter.physical_limit` declares: a layer's
-    compliance at 0 is a rigid base (``ratio`` at ``inf``), Poisson's ratio at the top
-    of its range the nearly incompressible end. A fit that stops there has found the
-    limit; elsewhere it stopped at the edge of what the model reaches.
-
-    Parameters
-    ----------
-    model : ComposedModel
-        The fitted model (``parameter_names``, ``bounds``, ``model_parameters``, ``effects``).
-    x : ndarray
-        Its fitted vector.
-    name : str
-        A fit parameter (``compliance``, ``nu``...).
-
-    Returns
-    -------
-    bool
-    """
-    if model is None or x is None or name not in model.parameter_names:
-        return False
-    x = np.asarray(x, dtype=float)
-    i = model.parameter_names.index(name)
-    lo, hi = (float(b[i]) for b in model.bounds)
-    lower = abs(x[i] - lo) <= abs(hi - x[i])
-    span = hi - lo
-    step = 1e-3 * (span if math.isfinite(span) and span > 0 else max(abs(x[i]), 1.0))
-    inward = x.copy()
-    inward[i] += step if lower else -step
-    try:
-        at, near = model.model_parameters(x), model.model_parameters(inward)
-    except (ValueError, ZeroDivisionError, OverflowError):
-        return False  # no model parameters there: not a limit they declare
-    for k, p in declared_parameters(model).items():
-        if p.physical_limit is None or k not in at or at[k] == near[k]:
-            continue
-        side = "upper" if at[k] > near[k] else "lower"
-        if side == p.physical_limit:
-            return True
-    return False

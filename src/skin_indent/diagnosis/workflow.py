@@ -63,8 +63,11 @@ from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, Measurement, PreparedCurve, prepare
 from .evidence import suggest_measurement
 from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung, evidence
-from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, at_physical_limit, suggestion
+from ..models.composed import at_physical_limit
+from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
 from ..inverse.residuals import effective_sample_size
+from ..runtime.context import context_of
+from ..runtime.json_io import jsonable
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
 MAX_POINTS = 400
@@ -212,7 +215,7 @@ class Diagnosis:
         from the fitted model (:func:`~.identifiability.assess`; not made when the diagnosis
         keeps to surfaces, ``in_loop=False``), or that none would. Also a fit parameter on a
         face of its range, unless the face is a physical limit
-        (:func:`~.identifiability.at_physical_limit`: a rigid base, the nearly
+        (:func:`~skin_indent.models.composed.at_physical_limit`: a rigid base, the nearly
         incompressible end of nu). Computed by :func:`diagnose`.
         """
         return dict(self.not_determined)
@@ -335,8 +338,6 @@ class Diagnosis:
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        from .._json import jsonable
-
         base, cur = self.base, self.current
         contact = cur.parameters.get("offset_mm", 0.0)
 
@@ -675,8 +676,6 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
     -------
     Diagnosis
     """
-    from ..context import context_of
-
     context = context_of(context, **build)
     candidates = tuple(EFFECTS) if candidates is None else tuple(candidates)
     for name in (*candidates, *add):

@@ -28,8 +28,8 @@ What an effect is made of, and how to add one: :mod:`.base` (:class:`Effect`) an
 
 from .adhesion import RANGE_MM as ADHESION_RANGE_MM
 from .adhesion import Adhesion
-from .base import BASE_PARAMETERS, DEPTH, ELASTIC, FORCE, HISTORY, STAGE_ORDER, WEIGHED, Effect, EffectParameter, Evaluation, \
-    ForwardSpec
+from .base import BASE_PARAMETERS, DEPTH, ELASTIC, FORCE, HISTORY, STAGE_ORDER, WEIGHED, Effect, EffectAxis, EffectParameter, \
+    Evaluation, ForwardSpec
 from .friction import Friction
 from .layer import Layer
 from .model import Model
@@ -47,5 +47,5 @@ for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), CONTAC
 del _e
 
 __all__ = ["ADHESION_RANGE_MM", "BASE_PARAMETERS", "CONTACT_POINT", "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED",
-           "Adhesion", "Effect", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset",
+           "Adhesion", "Effect", "EffectAxis", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset",
            "Repeat", "Stiffening", "Viscoelastic", "effect", "instances", "numbered", "register", "unregister"]

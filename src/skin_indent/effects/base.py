@@ -175,6 +175,36 @@ class ForwardSpec:
         below = RIGID if math.isinf(self.below) else self.law(self.below)
         return LayeredSample(tuple(Layer(t, self.law(r)) for t, r in layers), below)
 
+@dataclass(frozen=True)
+class EffectAxis:
+    """One effect axis of an :class:`EffectSurface`.
+
+    Attributes
+    ----------
+    name : str
+        The unit parameter fitted: ``thickness_mm``, ``compliance`` (= 1 / ratio,
+        E_top / E_below) or ``C20_over_E`` (C20 / E of stiffening).
+    nodes : tuple of float
+        Node values.
+    coordinate : {"linear", "log"}
+        Interpolation coordinate of the unit parameter: ``v`` or ``log(v + shift)``.
+    shift : float
+        Of the log coordinate (lets a node sit at 0, e.g. a rigid base).
+    """
+
+    name: str
+    nodes: tuple
+    coordinate: str = "linear"
+    shift: float = 0.0
+
+    def coords(self, values) -> np.ndarray:
+        v = np.asarray(values, dtype=float)
+        return np.log(v + self.shift) if self.coordinate == "log" else v
+
+    @property
+    def node_coords(self) -> np.ndarray:
+        return self.coords(self.nodes)
+
 
 def stack_parameters(effects, bounds_of, names: list, lo: list, hi: list) -> list:
     """Append the fit parameters of ``effects`` (in order) to ``names``, their ranges to ``lo``, ``hi``.
@@ -328,7 +358,7 @@ class Effect:
         return out
 
     def surface_axes(self, max_depth_mm: float) -> tuple:
-        """Axes (:class:`~skin_indent.response_surface.effect_surface.EffectAxis`) of an :data:`ELASTIC` effect."""
+        """Axes (:class:`~skin_indent.models.effect_surface.EffectAxis`) of an :data:`ELASTIC` effect."""
         raise NotImplementedError(f"{self.name} is not an axis of a response surface")
 
     def fe_bounds(self, max_depth_mm: float) -> dict:

@@ -14,6 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from .base import WEIGHED, Effect, EffectParameter, ForwardSpec
+from ..protocol import Protocol
+from ..response_surface import default_cache_dir
+from ..response_surface import default_settings
+from ..runtime.atomic import atomic_write
 
 #: chi-square full stick must be able to add beyond what E and nu absorb to be detectable
 DETECTABLE = 10.0
@@ -24,7 +28,6 @@ def _full_stick_runs(nu: float, depth_mm: float, radius_mm: float) -> tuple[np.n
     from ..simulate import simulate
     from ..mechanics.contact import ContactLaw, SphericalIndenter
     from ..mechanics.materials import NeoHooke
-    from ..protocol import Protocol
 
     ramp = Protocol.ramp(depth_mm, 24)
     runs = [simulate(NeoHooke(1.0, nu), SphericalIndenter(radius_mm), depth_mm, protocol=ramp, mesh="coarse",
@@ -45,9 +48,6 @@ def full_stick_ratio(nu: float, depth_mm: float, radius_mm: float,
     import hashlib
     import json
     import zipfile
-
-    from .._atomic import atomic_write
-    from ..response_surface import default_settings
 
     key = json.dumps({"check": "full-stick ratio", "nu": nu, "depth_mm": depth_mm, "radius_mm": radius_mm,
                       "code_version": default_settings(radius_mm, "coarse")["code_version"]}, sort_keys=True)
@@ -71,7 +71,6 @@ def _cache_dir(diagnosis):
     context = getattr(diagnosis, "context", None)
     if context is None:
         return None
-    from ..response_surface import default_cache_dir
 
     return context.cache_dir if context.cache_dir is not None else default_cache_dir()
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from .base import ELASTIC, Effect, EffectParameter, ForwardSpec
+from .base import EffectAxis
 
 
 class Stiffening(Effect):
@@ -33,8 +34,6 @@ class Stiffening(Effect):
 
     def surface_axes(self, max_depth_mm):
         """C20 / E in [0, 10]."""
-        from ..response_surface.effect_surface import EffectAxis
-
         return (EffectAxis("C20_over_E", (0.0, 0.3, 0.8, 1.6, 3.0, 5.5, 10.0), "linear"),)
 
     def starts(self, data, bounds):

@@ -2,7 +2,7 @@
 
 Forward: every material relaxes (:class:`~skin_indent.mechanics.materials.Viscoelastic`,
 E is the instantaneous modulus). Fitted: the Lee-Radok / Ting hereditary integral over
-the elastic force (:mod:`skin_indent.response_surface.hereditary`), exact at small
+the elastic force (:mod:`skin_indent.effects.hereditary`), exact at small
 strain and the QLV approximation at large strain: no extra finite-element runs.
 """
 
@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import HISTORY, Effect, EffectParameter, Evaluation, ForwardSpec
+from .hereditary import hereditary_force, relaxation_weights
 
 
 class Viscoelastic(Effect):
@@ -41,8 +42,6 @@ class Viscoelastic(Effect):
         return {"g1": (0.3,), "tau1_s": (duration / 20, duration / 4, duration)}
 
     def apply(self, ev: Evaluation, fit: dict) -> None:
-        from ..response_surface.hereditary import hereditary_force, relaxation_weights
-
         g, tau = float(fit["g1"]), float(fit["tau1_s"])
         weights = ev.cache.setdefault("relaxation_weights", {})
         if (g, tau) not in weights:

@@ -16,10 +16,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..inverse import IdentificationResult
-from ..provenance import surface_identity
+from ..runtime.provenance import surface_identity
 from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, check_fixed, check_modulus_range, hertz_modulus,
                              run_method, start_values)
 from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
+from ..effects import CONTACT_POINT
+from ..inverse.residuals import analyse_residuals
+from ..measurement import PreparedCurve, prepare
+from ..models import ComposedModel, HertzModel
+from ..runtime.json_io import jsonable
 
 #: a misfit above this many times the independent noise: the model does not describe the curve
 MISFIT_LIMIT = 3.0
@@ -98,8 +103,6 @@ class CurveFit(IdentificationResult):
 
     def to_dict(self) -> dict:
         """The identification's JSON summary plus the data treatment and quality (JSON-safe)."""
-        from .._json import jsonable
-
         p = self.prepared
         b = p.baseline
         out = super().to_dict()
@@ -202,8 +205,6 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
     :meth:`~skin_indent.measurement.PreparedCurve.noise_mN`); ``white`` where the fit already
     judged its residual (default judged here at that noise).
     """
-    from ..inverse.residuals import analyse_residuals
-
     if noise is None:
         try:
             noise = prepared.noise_mN()
@@ -296,10 +297,6 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     >>> result = si.fit(m, window=(0.05, 0.6))                        # doctest: +SKIP
     >>> result.parameters["E_kPa"], result.quality["verdict"]          # doctest: +SKIP
     """
-    from ..measurement import PreparedCurve, prepare
-    from ..effects import CONTACT_POINT
-    from ..models import ComposedModel, HertzModel
-
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     if model is not None or priors:

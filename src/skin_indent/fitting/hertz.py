@@ -13,6 +13,11 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from ..effects import CONTACT_POINT
+from ..effects.baseline import ForceBaseline
+from ..measurement import PreparedCurve, prepare
+from ..models import ComposedModel, HertzModel
+from .identification import hertz_modulus, run_method
 
 
 def fit_hertz(data, *, nu: float = 0.5) -> dict:
@@ -32,12 +37,6 @@ def fit_hertz(data, *, nu: float = 0.5) -> dict:
         ``contact_point_mm`` (recorded depth) with its standard error, ``baseline_mN`` (the
         flat line subtracted plus the fitted offset), ``rms_mN``, ``n_points``.
     """
-    from ..effects import CONTACT_POINT
-    from ..effects.baseline import ForceBaseline
-    from ..measurement import PreparedCurve, prepare
-    from ..models import ComposedModel, HertzModel
-    from .identification import hertz_modulus, run_method
-
     prepared = data if isinstance(data, PreparedCurve) else prepare(data)
     if prepared.contact_mode != "fit":
         raise ValueError(f"{prepared.source}: the curve has no pre-contact part to fit a contact point in")

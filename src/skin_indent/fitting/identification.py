@@ -11,6 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..analytic import hertz_force
+from .. import inverse
+from ..measurement import MeasurementError
+from .surfaces import check_inside
 
 METHODS = ("ekf-paper", "ekf", "lsq")
 #: The paper's in vivo stop rule.
@@ -67,8 +70,6 @@ def check_modulus_range(e_star_kPa: float, surface, nu: float = 0.4) -> None:
 
 def run_method(model, depth, force, x0, method: str = "lsq", *, fixed=None, tol=None, noise_mN=None):
     """One identification method of :mod:`skin_indent.inverse` by name (``"ekf-paper"``, ``"ekf"``, ``"lsq"``)."""
-    from .. import inverse
-
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     kwargs = {"fixed": fixed}
@@ -110,12 +111,9 @@ def identify(data, surface, method: str = "lsq", *, x0=None, fixed=None, tol: fl
     -------
     skin_indent.inverse.IdentificationResult
     """
-    from ..measurement import MeasurementError
-
     depth, force = np.asarray(data.depth_mm, float), np.asarray(data.force_mN, float)
     if depth.size < 3:
         raise MeasurementError(f"{data.source}: fewer than 3 points to fit")
-    from .surfaces import check_inside
 
     check_inside(surface, depth)
     if fixed:

@@ -24,6 +24,9 @@ from ..measurement import SEGMENTS, PreparedCurve, prepare
 from .curve import MISFIT_FLAG, CurveFit, quality
 from .identification import hertz_modulus, run_method
 from .multistart import Fitter, evidence
+from ..models import HertzModel
+from ..models.composed import at_physical_limit
+from ..runtime.context import context_of
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
 MAX_POINTS = 400
@@ -73,8 +76,6 @@ def curve_noise(data: PreparedCurve, noise_mN: float | None = None) -> tuple[flo
 
 def _hertz(prepared: PreparedCurve) -> dict:
     """Hertz's small-strain fit of the loading points in contact (E* only, contact at the guess)."""
-    from ..models import HertzModel
-
     h, F = prepared.loading()
     e0 = hertz_modulus(h, np.maximum(F, 0.0), prepared.radius_mm)
     model = HertzModel(prepared.radius_mm, (e0 * 1e-3, e0 * 1e3), (0.0, 2.0 * float(h.max())))
@@ -130,8 +131,6 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     >>> r = si.fit(m, model="neo-hooke+layer", priors={"thickness_mm": (1.2, 0.1)})  # doctest: +SKIP
     >>> r.priors["thickness_mm"]["determined_by"]                                    # doctest: +SKIP
     """
-    from ..context import context_of
-
     effects = parse_model(model)
     context = context_of(context)
     if isinstance(data, PreparedCurve):
@@ -201,6 +200,4 @@ _BY = {"data": "determined by the data", "prior": "determined by the prior", "bo
 
 
 def _physical(rung, name: str) -> bool:
-    from ..diagnosis.identifiability import at_physical_limit
-
     return at_physical_limit(rung.bound_model, rung.x, name)

@@ -13,6 +13,12 @@ import numpy as np
 from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, instances, numbered
 from ..inverse import IdentificationResult
 from ..inverse.residuals import analyse_residuals, describe_structure
+from ..inverse import fit_least_squares
+from ..inverse.result import jacobian_covariance
+from ..models import ComposedModel
+from ..runtime.json_io import jsonable
+from .identification import hertz_modulus
+from .surfaces import elastic_core
 
 #: relative accuracy of the forward model (FE + surface), added to the noise in quadrature
 MODEL_ERROR = 0.003
@@ -98,8 +104,6 @@ class Rung(IdentificationResult):
 
     def summary(self) -> dict:
         """JSON-safe summary of the rung."""
-        from .._json import jsonable
-
         return jsonable({"model": self.model, "parameters": self.parameters, "std": self.std, "rms_mN": self.rms_mN,
                          "bic": self.bic, "white": self.white, "n_parameters": self.n_parameters,
                          "structure": self.structure, "priors": self.priors})
@@ -141,8 +145,6 @@ class Fitter:
 
     def __init__(self, data, noise_mN: float, *, noise_known: bool, context, mesh: str, in_loop: bool = True,
                  fixed: dict | None = None, priors: dict | None = None):
-        from .identification import hertz_modulus
-
         self.data = data
         #: what the user knows, by the names results report (``thickness_mm``, ``ratio``, ``E_kPa``...):
         #: values held fixed, and Gaussian priors ``{name: (mean, sd)}``; each applies to the models
@@ -243,8 +245,6 @@ class Fitter:
         A response surface for none or one elastic effect; the finite-element model in
         the loop for more (two layers, layer and stiffening...).
         """
-        from .surfaces import elastic_core
-
         key = tuple(e.name for e in instances(effects) if e.stage == ELASTIC)
         if len(key) > 1 and not self.in_loop:
             raise ValueError(f"no surface combines {' and '.join(key)}: it is fitted with the finite-element model "
@@ -260,8 +260,6 @@ class Fitter:
         return tuple(e for e in self.implicit if e not in names) + names
 
     def model(self, effects: tuple):
-        from ..models import ComposedModel
-
         objs = instances(effects)
         weighed = [e.name for e in objs if e.stage == WEIGHED]
         if weighed:
@@ -520,8 +518,6 @@ class Fitter:
         return {key: done[key] for key in keys}
 
     def fit(self, effects: tuple) -> Rung:
-        from ..inverse import fit_least_squares
-
         key = tuple(effects)
         if key in self.fits:
             return self.fits[key]
@@ -597,7 +593,6 @@ class Fitter:
         if active and not np.all(np.isfinite(best.covariance)):
             # a parameter on a face of its range (a rigid base: compliance 0) is held there: the
             # covariance of the others is that of the fit with it fixed
-            from ..inverse.result import jacobian_covariance
 
             keep = [model.parameter_names.index(n) for n in best.free_names if n not in active]
             unscaled, _ = jacobian_covariance(model.jacobian(d.depth_mm, x)[:, keep])

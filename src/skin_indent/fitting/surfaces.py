@@ -14,8 +14,12 @@ import math
 
 import numpy as np
 
-from ..context import Context, context_of
+from ..runtime.context import Context, context_of
 from ..response_surface import ResponseSurface, SurfaceGrid, default_settings, nice_depth
+from ..effects import ELASTIC
+from ..effects import instances
+from ..models.effect_surface import EffectSurface
+from ..models.fe_core import FECore
 
 #: Depth ceilings h/R of the unit-radius surfaces that :func:`surface_for` reuses for
 #: every radius (the mesh is designed for the ceiling: the smallest one that covers
@@ -101,22 +105,16 @@ def elastic_core(effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: 
     combines them: the core is then a :class:`~skin_indent.models.fe_core.FECore`, the
     finite-element model in the loop.
     """
-    from ..effects import ELASTIC
-
-    from ..effects import instances
-
     elastic = [e for e in instances(effects) if e.stage == ELASTIC]
     context = context_of(context)
     kw = context.build_options()
     if len(elastic) > 1:  # no surface combines them: the finite-element model in the loop
-        from ..models.fe_core import FECore
 
         return FECore(elastic, radius_mm=radius_mm, max_depth_mm=max_depth_mm, e_star_kPa=e_star_kPa, mesh=mesh,
                       workers=context.workers)
     if not elastic:
         grid = curve_grid(e_star_kPa, 1.25 * max_depth_mm, BASE_NU)
         return ResponseSurface.load_or_build(grid, default_settings(radius_mm=radius_mm, mesh=mesh), **kw)
-    from ..response_surface.effect_surface import EffectSurface
 
     e = elastic[0]
     grid = curve_grid(e_star_kPa, max_depth_mm, EFFECT_NU)

@@ -17,6 +17,10 @@ import functools
 import math
 
 import numpy as np
+from ._problem import iterating
+from ._problem import make_problem
+from ._problem import takes_columns
+from .result import build_result
 
 
 #: peak forces (mN) for which the methods' absolute defaults were set
@@ -44,13 +48,9 @@ class _Scaled:
         return np.asarray(self.model.force(depth_mm, theta)) / self.unit
 
     def iterating(self):
-        from ._problem import iterating
-
         return iterating(self.model)
 
     def jacobian(self, depth_mm, theta, columns=None):
-        from ._problem import takes_columns
-
         if columns is not None and takes_columns(self.model):
             return np.asarray(self.model.jacobian(depth_mm, theta, columns=columns)) / self.unit
         return np.asarray(self.model.jacobian(depth_mm, theta)) / self.unit
@@ -64,8 +64,6 @@ def in_force_units(method):
         unit = force_unit(force) if np.ndim(force) == 1 and np.all(np.isfinite(force)) else 1.0
         if unit == 1.0:
             return method(model, depth, force, x0, **kwargs)
-        from ._problem import make_problem
-        from .result import build_result
 
         kw = dict(kwargs)
         for key in ("noise_mN", "measurement_std_mN_scaled", "sigma_mN"):

@@ -24,7 +24,7 @@ import numpy as np
 
 from ._problem import make_problem
 from .least_squares import fit_least_squares
-from .result import _jsonable
+from ..runtime.json_io import jsonable as _jsonable
 
 __all__ = ["Profile", "profile", "HertzEquivalence", "hertz_equivalence", "DELTA_CHI2_68", "DELTA_CHI2_95"]
 

@@ -12,6 +12,7 @@ from ._coords import Coordinates
 from ._units import in_force_units
 from ._problem import make_problem
 from .result import IdentificationResult, build_result, jacobian_covariance
+from ._problem import iterating
 
 __all__ = ["fit_least_squares"]
 
@@ -156,8 +157,6 @@ def fit_least_squares(model, depth, force, x0, *, fixed: Mapping[str, float] | N
         return (np.vstack([J, prior_jacobian(x)]) if priors else J) @ dxdu
 
     from scipy.optimize import least_squares  # lazy: scipy.optimize is slow to import
-
-    from ._problem import iterating
 
     t0 = time.perf_counter()
     with iterating(model):  # the iterations' Jacobians may be secant updates; the covariance's is exact

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from ..runtime.json_io import jsonable
 
 __all__ = ["IdentificationResult", "build_result", "information_criteria", "jacobian_covariance"]
 
@@ -95,9 +96,7 @@ def _correlation(cov: np.ndarray, fallback: np.ndarray | None = None) -> np.ndar
 
 
 def _jsonable(obj):
-    """JSON-safe objects: the package's one encoder (:func:`skin_indent._json.jsonable`)."""
-    from .._json import jsonable
-
+    """JSON-safe objects: the package's one encoder (:func:`skin_indent.runtime.json_io.jsonable`)."""
     return jsonable(obj)
 
 

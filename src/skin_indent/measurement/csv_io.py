@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_write
+from ..runtime.atomic import atomic_write
 
 from ._errors import MeasurementError, _quote
 from ._files import read_bytes

@@ -30,6 +30,7 @@ from ._errors import MeasurementError
 from .contact import Baseline, ContactPoint, find_contact_point
 from .core import Measurement
 from .segments import find_segments
+from ..inverse.noise import estimate_noise
 
 #: kinds of motion of a curve
 SEGMENTS = ("approach", "hold", "retract")
@@ -144,8 +145,6 @@ class PreparedCurve:
 
     def high_frequency_noise_mN(self) -> float:
         """Noise (mN) from the data: local cubic prediction along time (or point) order."""
-        from ..inverse.noise import estimate_noise
-
         t = self.time_s
         x = t if t is not None and np.all(np.diff(t) > 0) else np.arange(self.n, dtype=float)
         sigma = estimate_noise(x, self.force_mN)

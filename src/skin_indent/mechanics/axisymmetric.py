@@ -31,6 +31,7 @@ from skfem import Basis, ElementTriP2, ElementVector
 from .layers import LayeredSample
 from .materials import Material, NeoHooke
 from .materials.neo_hooke import PointwiseNeoHooke
+from .materials.base import cauchy_stress
 
 #: (row, column) of the five non-zero components of F, order used throughout.
 F_COMPONENTS = ((0, 0), (0, 1), (1, 0), (1, 1), (2, 2))
@@ -339,8 +340,6 @@ class AxisymmetricSolid:
         Returns a dict with ``cauchy_rr, cauchy_zz, cauchy_tt, cauchy_rz, von_mises``
         of shape (nel,).
         """
-        from .materials.base import cauchy_stress
-
         F = self.displacement_gradient(u)
         sig = np.empty((3, 3) + F.shape[2:])
         for (ix, _), mat in zip(self.regions, self._active):

@@ -21,7 +21,10 @@ by node), so the force-depth curve is smooth. The contact pressure is
 
 The penalty is ``epsilon = penalty * E_ref / a`` (kPa/mm), with ``E_ref`` the
 material's reference modulus and ``a`` the design contact radius, so the force
-is exactly proportional to the moduli at fixed Poisson's ratio.
+is exactly proportional to the moduli at fixed Poisson's ratio. Layers squeezed
+against a rigid base are far stiffer than a half-space: there the frictionless
+penalty is multiplied by a factor of the depth (:attr:`SphereContact.penalty_scale`,
+see :class:`~skin_indent.mechanics.solver.ConfinedPenalty`).
 
 Interface laws (:class:`ContactLaw`)
 ------------------------------------
@@ -311,6 +314,9 @@ class SphereContact:
         self.epsilon_t = self.law.tangential_penalty * self.epsilon
         #: False when the tangent may be non-symmetric (friction).
         self.symmetric_tangent = not self.law.frictional
+        #: Optional factor of ``epsilon`` as a function of the depth (mm), for the frictionless,
+        #: non-adhesive law only (:meth:`penalty`); None: 1.
+        self.penalty_scale = None
         #: True when ``forces(..., tangent="convex")`` gives a different, positive-definite
         #: tangent for Newton steps that the consistent one does not make descend (adhesion).
         self.convex_fallback = self.law.adhesive
@@ -322,6 +328,13 @@ class SphereContact:
     @property
     def path_independent(self) -> bool:
         return self.law.path_independent
+
+    def penalty(self, depth: float) -> float:
+        """The penalty per area at ``depth`` (mm), kPa/mm: ``epsilon`` times :attr:`penalty_scale`
+        (frictionless, non-adhesive contact; with friction or adhesion always ``epsilon``)."""
+        if self.penalty_scale is None or not self._plain:
+            return self.epsilon
+        return self.epsilon * self.penalty_scale(depth)
 
     def _kinematics(self, u, depth):
         """Normal, distance to the centre (inf when linearised) and gap at the facet quadrature points."""
@@ -457,7 +470,7 @@ class SphereContact:
             return ContactState(force, p, float(pen.max(initial=0.0)), int(np.count_nonzero(pen)), q)
         n, _, gap = self._kinematics(u, depth)
         pen = np.maximum(-gap, 0.0)
-        p = self.epsilon * pen
+        p = self.penalty(depth) * pen
         force = float(np.sum(p * (-n[1]) * self.dA))
         return ContactState(force, p, float(pen.max(initial=0.0)), int(np.count_nonzero(pen)))
 
@@ -471,7 +484,7 @@ class SphereContact:
             phi = 0.5 * self.epsilon * np.maximum(-gap, 0.0) ** 2 + np.where(
                 gap >= 0, -w * np.exp(-np.maximum(gap, 0.0) / delta), -w + w * gap / delta)
             return float(np.sum(phi * self.dA))
-        return float(0.5 * self.epsilon * np.sum(np.maximum(-gap, 0.0) ** 2 * self.dA))
+        return float(0.5 * self.penalty(depth) * np.sum(np.maximum(-gap, 0.0) ** 2 * self.dA))
 
     def forces(self, u: np.ndarray, depth: float, tangent: bool | str = True):
         """Contact force vector (mN, the gradient of the penalty energy) and facet tangents.
@@ -490,7 +503,8 @@ class SphereContact:
             return self._general(u, depth, tangent)[:3]
         n, dist, gap = self._kinematics(u, depth)
         pen = np.maximum(-gap, 0.0)
-        p = self.epsilon * pen
+        epsilon = self.penalty(depth)
+        p = epsilon * pen
         Nn = self.N * n[self.comp]  # (nloc, nf, nq): N_a n_{i(a)}
         fe = -np.einsum("keq,eq,eq->ke", Nn, p, self.dA)
         f = np.bincount(self.element_dofs.ravel(), weights=fe.ravel(), minlength=u.size)
@@ -498,7 +512,7 @@ class SphereContact:
         if not tangent:
             return f, None, force
         active = (pen > 0).astype(float)
-        w1 = self.epsilon * active * self.dA
+        w1 = epsilon * active * self.dA
         w2 = p / dist * self.dA
         same = (self.comp[:, None] == self.comp[None, :]).astype(float)  # delta_ij
         Ke = np.einsum("keq,leq,eq->ekl", Nn, Nn, w1 + w2) - np.einsum(

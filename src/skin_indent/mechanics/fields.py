@@ -45,7 +45,7 @@ def nodal_fields(problem, u: np.ndarray, depth_mm: float) -> dict:
     R = problem.indenter.radius_mm
     gap = np.hypot(x[:, 0], x[:, 1] - (R - depth_mm)) - R
     on_top = np.abs(points[:, 1]) <= 1e-12 * max(1.0, problem.imesh.extent_mm)
-    pressure = np.where(on_top, problem.contact.epsilon * np.maximum(-gap, 0.0), 0.0)
+    pressure = np.where(on_top, problem.contact.penalty(depth_mm) * np.maximum(-gap, 0.0), 0.0)
     out = {
         "points": points,
         "cells": sb.element_dofs.T,

@@ -183,7 +183,7 @@ def graded_mesh(radius_mm: float, depth_mm: float, design: MeshDesign | str = DE
             break
         mesh = mesh.refined(marked)
     mesh = conform_to_interfaces(mesh, interfaces[interfaces < Lz])
-    mesh = _with_named_boundaries(mesh, Lr, Lz)
+    mesh = with_named_boundaries(mesh, Lr, Lz)
     base = f", rigid base at {Lz:.4g} mm" if rigid_base_mm is not None else ""
     layers = f", {interfaces.size} interface(s)" if interfaces.size else ""
     name = (f"{design.name} (generated: P2 on {mesh.t.shape[1]} triangles, a={a:.4g} mm, s0={s0:.3g} mm, "
@@ -257,7 +257,7 @@ def conform_to_interfaces(mesh: MeshTri, interfaces_mm) -> MeshTri:
     return MeshTri(p, t)
 
 
-def _with_named_boundaries(mesh: MeshTri, L: float, Lz: float | None = None) -> MeshTri:
+def with_named_boundaries(mesh: MeshTri, L: float, Lz: float | None = None) -> MeshTri:
     Lz = L if Lz is None else Lz
     tol = 1e-9 * max(L, Lz)
     return mesh.with_boundaries(
@@ -312,7 +312,7 @@ def load_mesh(path: str | Path) -> IndentationMesh:
     r_top = np.sort(p[0, top])
     s0 = meta.get("surface_size_mm", float(np.diff(r_top[:2])[0]) if r_top.size > 1 else L)
     return IndentationMesh(
-        _with_named_boundaries(mesh, L, Lz),
+        with_named_boundaries(mesh, L, Lz),
         f"{path.name} (read from file)",
         meta.get("contact_radius_mm", float("nan")),
         s0,
@@ -328,6 +328,6 @@ def refined_uniformly(imesh: IndentationMesh, levels: int = 1) -> IndentationMes
     """
     mesh = imesh.mesh.refined(int(levels))
     lz = -float(mesh.p[1].min())
-    return IndentationMesh(_with_named_boundaries(mesh, imesh.extent_mm, lz),
+    return IndentationMesh(with_named_boundaries(mesh, imesh.extent_mm, lz),
                            f"{imesh.name.split(' (')[0]}, refined uniformly {int(levels)}x",
                            imesh.contact_radius_mm, imesh.surface_size_mm / 2**int(levels), imesh.extent_mm)

@@ -32,6 +32,10 @@ per 20-depth run, measured).
   and :math:`\partial F/\partial p|_u = F\,(\partial E_\mathrm{ref}/\partial p)/E_\mathrm{ref}`,
   non-zero for the modulus of the arg-max material only (at a tie, every tied
   material gets the derivative: the right derivative of the max).
+  Layers on a rigid base where the penalty follows their confined modulus
+  :math:`M_s` (:class:`~.solver.ConfinedPenalty` above 1 at that depth) get
+  :math:`(\partial M_s/\partial p)/M_s` instead (:math:`E_\mathrm{ref}` cancels there),
+  with :math:`M_s` depending on the layers' moduli and Poisson's ratios.
 * The sphere force is the vertical resultant of the contact force vector,
   :math:`F = \sum_{a \in z} f_{c,a}` (the shape functions sum to one), so
   :math:`\partial F/\partial u = e_z^T K_c` with :math:`K_c` the contact tangent.
@@ -141,6 +145,11 @@ class DirectSensitivity:
         #: d(E_ref)/dp / E_ref for each key (1/kPa per unit of p)
         self._penalty_rate = np.array([materials[k].reference_modulus_derivative(name) / self.e_ref
                                        if k in tied else 0.0 for k, name in self.keys])
+        #: d(M_s)/dp / M_s for each key, where the penalty follows the layers' confined modulus
+        confined = problem.penalty_scale
+        self._confined = confined
+        self._confined_rate = None if confined is None else np.array(
+            [sample.confined_modulus_derivative(k, name) / confined.modulus_kPa for k, name in self.keys])
         self.values = {key: np.zeros(n_depths) for key in self.keys}
         self.factorisations = 0
 
@@ -173,7 +182,9 @@ class DirectSensitivity:
             H = pb.solid.displacement_gradient(u)
             dR = self._parameter_forces(H)
         K = pb.pattern.assemble([(pb.solid.element_dofs, Ke), (pb.contact.element_dofs, Kc)])
-        dR += f_c[:, None] * self._penalty_rate[None, :]
+        confined = self._confined is not None and self._confined.active(depth)
+        rate = self._confined_rate if confined else self._penalty_rate
+        dR += f_c[:, None] * rate[None, :]
         b = -dR[free]
         # dF/du = e_z^T K_c (F is the sum of the vertical contact forces)
         c = pb.contact
@@ -187,7 +198,7 @@ class DirectSensitivity:
         for _ in range(self.refine):
             lam += solver.solve(K, g - K @ lam, rtol=ADJOINT_RTOL)
         self.factorisations += solver.factorisations - before
-        return lam @ b + force * self._penalty_rate
+        return lam @ b + force * rate
 
     def __call__(self, i: int, u: np.ndarray, depth: float) -> None:
         """The ``on_converged`` hook: store dF/dp at the ``i``-th requested depth."""

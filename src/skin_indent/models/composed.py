@@ -9,6 +9,7 @@ import numpy as np
 
 from ..effects import DEPTH, ELASTIC, STAGE_ORDER, WEIGHED, Evaluation, instances
 from ..effects.base import stack_parameters
+from ..effects import BASE_PARAMETERS
 
 
 class ComposedModel:
@@ -187,3 +188,68 @@ class ComposedModel:
             std[n] = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
         return params, std
 
+
+def declared_parameters(model) -> dict:
+    """The declared parameters of a fitted model: the core's
+    (:data:`~skin_indent.effects.BASE_PARAMETERS`) and every effect's.
+
+    Parameters
+    ----------
+    model : ComposedModel
+        A fitted model (its ``effects``).
+
+    Returns
+    -------
+    dict
+        ``{model parameter name: EffectParameter}``.
+    """
+    out = {p.name: p for p in BASE_PARAMETERS}
+    for e in model.effects:
+        out.update({p.name: p for p in e.parameters})
+    return out
+
+
+def at_physical_limit(model, x, name: str) -> bool:
+    """The fit parameter ``name``, on a face of its range, stands at a physical limit.
+
+    The face is a physical limit when, moving inward from it, a model parameter moves
+    away from the end of its range that its
+    :attr:`~skin_indent.effects.EffectParameter.physical_limit` declares: a layer's
+    compliance at 0 is a rigid base (``ratio`` at ``inf``), Poisson's ratio at the top
+    of its range the nearly incompressible end. A fit that stops there has found the
+    limit; elsewhere it stopped at the edge of what the model reaches.
+
+    Parameters
+    ----------
+    model : ComposedModel
+        The fitted model (``parameter_names``, ``bounds``, ``model_parameters``, ``effects``).
+    x : ndarray
+        Its fitted vector.
+    name : str
+        A fit parameter (``compliance``, ``nu``...).
+
+    Returns
+    -------
+    bool
+    """
+    if model is None or x is None or name not in model.parameter_names:
+        return False
+    x = np.asarray(x, dtype=float)
+    i = model.parameter_names.index(name)
+    lo, hi = (float(b[i]) for b in model.bounds)
+    lower = abs(x[i] - lo) <= abs(hi - x[i])
+    span = hi - lo
+    step = 1e-3 * (span if math.isfinite(span) and span > 0 else max(abs(x[i]), 1.0))
+    inward = x.copy()
+    inward[i] += step if lower else -step
+    try:
+        at, near = model.model_parameters(x), model.model_parameters(inward)
+    except (ValueError, ZeroDivisionError, OverflowError):
+        return False  # no model parameters there: not a limit they declare
+    for k, p in declared_parameters(model).items():
+        if p.physical_limit is None or k not in at or at[k] == near[k]:
+            continue
+        side = "upper" if at[k] > near[k] else "lower"
+        if side == p.physical_limit:
+            return True
+    return False

@@ -59,6 +59,7 @@ import numpy as np
 from ..effects import ELASTIC, ForwardSpec, instances
 from ..response_surface import nice_depth
 from ..effects.base import stack_parameters
+from ..runtime.executors import available_cpus, make_executor
 
 #: Newton tolerance of the runs in the loop: finite differences of relative step
 #: :data:`RELATIVE_STEP` need forces converged far below the step
@@ -137,7 +138,7 @@ def morph(imesh, reference_mm, interfaces_mm, rigid_base: bool):
         Interface depths (mm, increasing) the mesh was built for and the new ones.
     rigid_base : bool
     """
-    from ..mechanics.mesh import IndentationMesh, _with_named_boundaries
+    from ..mechanics.mesh import IndentationMesh, with_named_boundaries
 
     ref = np.r_[0.0, np.asarray(reference_mm, dtype=float)]
     new = np.r_[0.0, np.asarray(interfaces_mm, dtype=float)]
@@ -152,7 +153,7 @@ def morph(imesh, reference_mm, interfaces_mm, rigid_base: bool):
     p[1] = -mapped
     mesh = type(imesh.mesh)(p, imesh.mesh.t)
     lz = float(new[-1]) if rigid_base else bottom
-    return IndentationMesh(_with_named_boundaries(mesh, imesh.extent_mm, lz), imesh.name + " (morphed)",
+    return IndentationMesh(with_named_boundaries(mesh, imesh.extent_mm, lz), imesh.name + " (morphed)",
                            imesh.contact_radius_mm, imesh.surface_size_mm, imesh.extent_mm)
 
 
@@ -322,8 +323,6 @@ class FECore:
 
     def _pool(self):
         if self._executor is None:
-            from ..response_surface._executors import available_cpus, make_executor
-
             workers = self.workers if self.workers is not None else min(2, available_cpus())
             self._executor = make_executor(workers)
             weakref.finalize(self, self._executor.close)

@@ -63,14 +63,15 @@ same way.
 """
 
 
-from ._cache import default_cache_dir, default_settings, default_unit_curve, settings_hash
-from ._executors import (DASK_MISSING, DaskExecutor, Executor, InProcess, LocalProcesses, WorkerDied, make_executor,
+from ._cache import default_cache_dir, default_settings, default_unit_curve, resolve_model, run_key, run_task, settings_hash
+from ..runtime.executors import (DASK_MISSING, DaskExecutor, Executor, InProcess, LocalProcesses, WorkerDied, make_executor,
                          run_batch)
 from ._grid import NICE_DEPTHS, SurfaceGrid, nice_depth, parse_range
 from ._store import RunStore
 from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, ResponseSurface
 
 __all__ = [
+    "resolve_model", "run_key", "run_task",
     "NICE_DEPTHS", "nice_depth",
     "SurfaceGrid",
     "ResponseSurface",

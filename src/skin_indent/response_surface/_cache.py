@@ -13,8 +13,9 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from .._atomic import atomic_write
+from ..runtime.atomic import atomic_write
 from ._grid import SurfaceGrid
+from skin_indent import __version__
 
 UnitCurve = Callable[[float, np.ndarray], np.ndarray]
 
@@ -29,19 +30,19 @@ def _json_default(obj):
     raise TypeError(f"settings value {obj!r} of type {type(obj).__name__} is not JSON-serialisable")
 
 
-def _canonical_json(obj) -> str:
+def canonical_json(obj) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default, allow_nan=False)
 
 
 def settings_hash(settings: Mapping, grid: SurfaceGrid) -> str:
     """SHA-256 (hex) of the canonical JSON of ``settings`` and ``grid``: the cache key."""
-    return hashlib.sha256(_canonical_json({"settings": settings, "grid": grid.to_dict()}).encode()).hexdigest()
+    return hashlib.sha256(canonical_json({"settings": settings, "grid": grid.to_dict()}).encode()).hexdigest()
 
 
-def _run_key(settings: Mapping, depth_mm: np.ndarray) -> str:
+def run_key(settings: Mapping, depth_mm: np.ndarray) -> str:
     # a forward run depends on the settings, the depths and nu, not on the E grid
     payload = {"settings": settings, "depth_mm": np.asarray(depth_mm).tolist()}
-    return hashlib.sha256(_canonical_json(payload).encode()).hexdigest()
+    return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
 
 
 def _source_digest() -> str:
@@ -68,8 +69,6 @@ def default_settings(radius_mm: float = 6.22, mesh: str = "medium") -> dict:
     mesh : str
         Mesh preset passed to :func:`skin_indent.simulate.fe_unit_curve`.
     """
-    from skin_indent import __version__
-
     return {
         "model": "neo-hooke half-space",
         "unit_curve": "skin_indent.simulate.fe_unit_curve",
@@ -108,14 +107,14 @@ def _describe_callable(fn) -> dict:
     return {"func": f"{getattr(kind, '__module__', '?')}.{kind.__qualname__}"}
 
 
-def _resolve_model(unit_curve: UnitCurve | None, settings: Mapping | None):
+def resolve_model(unit_curve: UnitCurve | None, settings: Mapping | None):
     """``(unit_curve, settings)`` with defaults filled in; settings as canonical JSON data."""
     if unit_curve is None:
         settings = default_settings() if settings is None else settings
         unit_curve = default_unit_curve(settings)
     elif settings is None:
         settings = {"unit_curve": _describe_callable(unit_curve)}
-    return unit_curve, json.loads(_canonical_json(settings))
+    return unit_curve, json.loads(canonical_json(settings))
 
 
 def default_cache_dir() -> Path:
@@ -124,11 +123,10 @@ def default_cache_dir() -> Path:
     return Path(env) if env else Path.home() / ".cache" / "skin_indent"
 
 
-_atomic_write = atomic_write  # the package-wide atomic writer
 
 
-def _atomic_savez(path: Path, **arrays) -> None:
-    _atomic_write(path, lambda fh: np.savez(fh, **arrays))
+def atomic_savez(path: Path, **arrays) -> None:
+    atomic_write(path, lambda fh: np.savez(fh, **arrays))
 
 
 def _run_one(unit_curve: UnitCurve, nu: float, depth_mm: np.ndarray):
@@ -144,7 +142,7 @@ def _run_one(unit_curve: UnitCurve, nu: float, depth_mm: np.ndarray):
     return nu, f, None
 
 
-def _run_task(unit_curve: UnitCurve, nu: float, depth_mm: np.ndarray) -> dict:
+def run_task(unit_curve: UnitCurve, nu: float, depth_mm: np.ndarray) -> dict:
     """:func:`_run_one` plus where and how long it ran, and the digest of the forward-model
     sources installed there (~0.4 ms: read afresh for every run)."""
     t, cpu = time.perf_counter(), time.thread_time()
@@ -154,7 +152,7 @@ def _run_task(unit_curve: UnitCurve, nu: float, depth_mm: np.ndarray) -> dict:
             "code": _source_digest()}
 
 
-def _expected_code(settings: Mapping) -> str | None:
+def expected_code_of(settings: Mapping) -> str | None:
     """The source digest that ``settings`` claim (``code_version`` of :func:`default_settings`)."""
     version = settings.get("code_version") if isinstance(settings, Mapping) else None
     if isinstance(version, str) and "+src." in version:

@@ -37,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._cache import _atomic_write, _canonical_json
+from ..runtime.atomic import atomic_write
+from ._cache import canonical_json
 
 MANIFEST = "manifest.json"
 LOCK = ".lock"
@@ -124,7 +125,7 @@ class RunStore:
         self._signature = None  # (mtime_ns, size, inode) of the manifest last read
         info = self.dir / "settings.json"
         if not info.exists():
-            _atomic_write(info, lambda fh: fh.write(json.dumps(
+            atomic_write(info, lambda fh: fh.write(json.dumps(
                 {"key": key, "settings": settings, "depth_mm": self.depth_mm.tolist()}, indent=1).encode()))
         self._remove_stale_tmp()
         self.refresh()
@@ -200,19 +201,19 @@ class RunStore:
 
     def _write_manifest(self, runs: dict) -> None:
         # one run per line, in order of nu: readable, and diff-friendly
-        body = ",\n".join(f"  {json.dumps(k)}: {_canonical_json(runs[k])}" for k in sorted(runs, key=float))
+        body = ",\n".join(f"  {json.dumps(k)}: {canonical_json(runs[k])}" for k in sorted(runs, key=float))
         text = (f'{{"format": "{_FORMAT}", "version": {_VERSION}, "key": "{self.key}", "runs": {{\n'
                 f"{body}\n}}}}\n")
-        _atomic_write(self.manifest_path, lambda fh: fh.write(text.encode()))
+        atomic_write(self.manifest_path, lambda fh: fh.write(text.encode()))
 
     @contextlib.contextmanager
     def _update(self):
         """Lock, re-read the manifest, let the caller edit the runs, write it back."""
         with file_lock(self.lock_path):
             runs = self._read_manifest(set_aside=True)
-            before = _canonical_json(runs)
+            before = canonical_json(runs)
             yield runs
-            if _canonical_json(runs) != before:
+            if canonical_json(runs) != before:
                 self._write_manifest(runs)
             self._runs = runs
             self._signature = self._stat()
@@ -254,7 +255,7 @@ class RunStore:
         sha = hashlib.sha256(data).hexdigest()
         name = f"nu_{nu_tag(nu)}_{sha[:16]}.npz"
         path = self.dir / name
-        _atomic_write(path, lambda fh: fh.write(data))
+        atomic_write(path, lambda fh: fh.write(data))
         entry = {"nu": nu, "status": "done", "file": name, "bytes": len(data), "sha256": sha, "finished": _now(),
                  "seconds": None if seconds is None else round(float(seconds), 4),
                  "cpu_seconds": None if cpu_seconds is None else round(float(cpu_seconds), 4),

@@ -12,9 +12,9 @@ from typing import Mapping
 
 import numpy as np
 
-from ._cache import (UnitCurve, _atomic_savez, _canonical_json, _expected_code, _resolve_model, _run_key, _run_task,
+from ._cache import (UnitCurve, atomic_savez, canonical_json, expected_code_of, resolve_model, run_key, run_task,
                      default_cache_dir, settings_hash)
-from ._executors import Executor, _import_distributed, make_executor
+from ..runtime.executors import Executor, import_distributed, make_executor
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
 from ._store import RunStore
@@ -101,7 +101,7 @@ class ResponseSurface:
         if not isinstance(grid, SurfaceGrid):
             raise TypeError(f"grid must be a SurfaceGrid, got {type(grid).__name__}")
         self.grid = grid
-        self.settings = json.loads(_canonical_json(settings or {}))
+        self.settings = json.loads(canonical_json(settings or {}))
         self.method = _check_choice("method", method, METHODS)
         self.depth_interp = _check_choice("depth_interp", depth_interp, DEPTH_INTERPS)
         self.scaling = _check_choice("scaling", scaling, SCALINGS)
@@ -201,13 +201,13 @@ class ResponseSurface:
         """
         from tqdm.auto import tqdm
 
-        unit_curve, settings = _resolve_model(unit_curve, settings)
+        unit_curve, settings = resolve_model(unit_curve, settings)
         if (client is not None or scheduler is not None) and executor is None:
-            _import_distributed()  # fail with the install hint before any output
+            import_distributed()  # fail with the install hint before any output
         depth = np.array(grid.depth_mm)
         nus = grid.nu
         f = np.full((depth.size, nus.size), np.nan)
-        key = _run_key(settings, depth)
+        key = run_key(settings, depth)
         store = None if cache_dir is None else RunStore(Path(cache_dir) / "runs" / key[:24], key, settings, depth)
         todo = []
         for k, nu in enumerate(nus.tolist()):
@@ -244,9 +244,9 @@ class ResponseSurface:
                 ex, owned = _choose_executor(unit_curve, workers, client, scheduler, executor, len(todo))
                 # remote workers may run another installation: check what they ran (local
                 # processes run this one, which may be edited meanwhile in development)
-                expected_code = _expected_code(settings) if ex.remote else None
+                expected_code = expected_code_of(settings) if ex.remote else None
                 try:
-                    for k, out, error in ex.imap_unordered(_run_task, tasks()):
+                    for k, out, error in ex.imap_unordered(run_task, tasks()):
                         nu = float(nus[k])
                         bar.update()
                         if error is not None:  # the call did not come back (worker died, ...)
@@ -277,8 +277,8 @@ class ResponseSurface:
                 "failures": [[nu, why] for nu, why in self.failures.items()],
                 "options": {"method": self.method, "depth_interp": self.depth_interp, "scaling": self.scaling}}
         path = Path(path)
-        _atomic_savez(path, depth_mm=self.grid.depth_mm, E_kPa=self.grid.E_kPa, nu=self.grid.nu,
-                      unit_force_mN=self._f, meta=np.array(_canonical_json(meta)))
+        atomic_savez(path, depth_mm=self.grid.depth_mm, E_kPa=self.grid.E_kPa, nu=self.grid.nu,
+                      unit_force_mN=self._f, meta=np.array(canonical_json(meta)))
         return path
 
     @classmethod
@@ -344,7 +344,7 @@ class ResponseSurface:
         cache_dir : path, optional
             Root of the run cache; default :func:`default_cache_dir`.
         """
-        unit_curve, settings = _resolve_model(unit_curve, settings)
+        unit_curve, settings = resolve_model(unit_curve, settings)
         cache_dir = default_cache_dir() if cache_dir is None else Path(cache_dir)
         key = settings_hash(settings, grid)
         path = cache_dir / "surfaces" / f"{key[:24]}.npz" if path is None else Path(path)

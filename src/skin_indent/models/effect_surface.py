@@ -27,54 +27,26 @@ from __future__ import annotations
 
 import functools
 import itertools
-import math
-from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
 
-from ._cache import default_cache_dir, default_settings
-from ._executors import Executor
-from ._grid import SurfaceGrid
+from ..response_surface import SurfaceGrid, default_cache_dir, default_settings
+from ..runtime.executors import Executor
+from ..effects import ELASTIC, EffectAxis, effect
+from ..effects import Model
+from ..response_surface import ResponseSurface
+from ..response_surface import RunStore
+from ..response_surface import resolve_model, run_key, run_task
+from ..runtime.executors import make_executor
 
 __all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve"]
 
 
-@dataclass(frozen=True)
-class EffectAxis:
-    """One effect axis of an :class:`EffectSurface`.
-
-    Attributes
-    ----------
-    name : str
-        The unit parameter fitted: ``thickness_mm``, ``compliance`` (= 1 / ratio,
-        E_top / E_below) or ``C20_over_E`` (C20 / E of stiffening).
-    nodes : tuple of float
-        Node values.
-    coordinate : {"linear", "log"}
-        Interpolation coordinate of the unit parameter: ``v`` or ``log(v + shift)``.
-    shift : float
-        Of the log coordinate (lets a node sit at 0, e.g. a rigid base).
-    """
-
-    name: str
-    nodes: tuple
-    coordinate: str = "linear"
-    shift: float = 0.0
-
-    def coords(self, values) -> np.ndarray:
-        v = np.asarray(values, dtype=float)
-        return np.log(v + self.shift) if self.coordinate == "log" else v
-
-    @property
-    def node_coords(self) -> np.ndarray:
-        return self.coords(self.nodes)
 
 
 def model_parameters(effects, axis_values: Mapping[str, float]) -> dict:
     """Model parameters at E = 1 kPa (``Model.check`` names) of the surface-axis values: each effect says."""
-    from ..effects import effect
-
     out = {}
     for e in (effect(name) for name in effects):
         out.update(e.unit_values({k: axis_values[k] for k in e.fit_names if k in axis_values}))
@@ -83,8 +55,6 @@ def model_parameters(effects, axis_values: Mapping[str, float]) -> dict:
 
 def default_axes(effect_name, max_depth_mm: float) -> tuple[EffectAxis, ...]:
     """The axes of an elastic effect's surface (nodes scale with the deepest depth): the effect says."""
-    from ..effects import ELASTIC, effect
-
     e = effect(effect_name)
     if e.stage != ELASTIC:
         raise ValueError(f"no effect surface for {e.name!r}: it does not act on the elastic response")
@@ -94,8 +64,6 @@ def default_axes(effect_name, max_depth_mm: float) -> tuple[EffectAxis, ...]:
 def model_unit_curve(nu: float, depth_mm, *, effects: tuple, parameters: tuple, radius_mm: float,
                      mesh: str) -> np.ndarray:
     """Force (mN) at E = 1 kPa of ``Model(effects)`` with unit ``parameters`` ((name, value), ...)."""
-    from ..effects import Model  # lazy: mechanics is heavy
-
     theta = {"E_kPa": 1.0, "nu": float(nu), **dict(parameters)}
     return Model(tuple(effects), radius_mm).simulate(theta, np.asarray(depth_mm, float), mesh=mesh).force_mN
 
@@ -172,11 +140,6 @@ class EffectSurface:
 
         from tqdm.auto import tqdm
 
-        from ._cache import _resolve_model, _run_key, _run_task
-        from ._executors import make_executor
-        from ._store import RunStore
-        from ._surface import ResponseSurface
-
         effects = tuple(effects)
         cache_dir = Path(default_cache_dir() if cache_dir is None else cache_dir)
         shape = tuple(len(a.nodes) for a in axes)
@@ -188,7 +151,7 @@ class EffectSurface:
             params = tuple(sorted(model_parameters(effects, dict(unit)).items()))
             settings = {**default_settings(radius_mm=radius_mm, mesh=mesh),
                         "model": "neo-hooke" + "".join(f"+{e}" for e in effects),
-                        "unit_curve": "skin_indent.response_surface.effect_surface.model_unit_curve",
+                        "unit_curve": "skin_indent.models.effect_surface.model_unit_curve",
                         "unit_parameters": [[k, repr(v)] for k, v in params]}
             curve = functools.partial(model_unit_curve, effects=effects, parameters=params,
                                       radius_mm=float(radius_mm), mesh=mesh)
@@ -202,8 +165,8 @@ class EffectSurface:
         # all missing runs of all sub-surfaces in one stream, so that every worker stays busy
         tasks, stores = [], {}
         for idx, curve, settings in pending:
-            curve, canonical = _resolve_model(curve, settings)
-            key = _run_key(canonical, depth)
+            curve, canonical = resolve_model(curve, settings)
+            key = run_key(canonical, depth)
             stores[idx] = store = RunStore(cache_dir / "runs" / key[:24], key, canonical, depth)
             tasks += [((idx, float(nu)), (curve, float(nu), depth)) for nu in grid.nu if store.load(nu) is None]
         owned = executor is None
@@ -211,7 +174,7 @@ class EffectSurface:
                                                                  tasks=len(tasks))
         bar = tqdm(total=len(tasks), disable=not progress, desc=" + ".join(effects) + " surface", unit="run")
         try:
-            for (idx, nu), out, error in ex.imap_unordered(_run_task, iter(tasks)):
+            for (idx, nu), out, error in ex.imap_unordered(run_task, iter(tasks)):
                 bar.update()
                 if error is not None:
                     stores[idx].record_failed(nu, f"{type(error).__name__}: {' '.join(str(error).split())}")

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_write
-from .workflow import FROM_FE
+from ..runtime.atomic import atomic_write
+from ..diagnosis.workflow import FROM_FE
 
 FIGURES = ("fit.png", "residuals.png", "ladder.png")
 

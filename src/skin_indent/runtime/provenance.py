@@ -23,7 +23,8 @@ from collections.abc import Iterable, Mapping
 from importlib import metadata
 from pathlib import Path
 
-from ._json import jsonable
+from .json_io import jsonable
+from .. import __version__
 
 __all__ = ["file_identity", "provenance", "provenance_comment_lines", "read_provenance", "surface_identity",
            "with_provenance"]
@@ -131,8 +132,6 @@ def provenance(command=None, inputs: Iterable = (), settings: Mapping | None = N
     >>> prov["command"], prov["settings"]
     (['skin-indent', 'fit', 'a.csv'], {'method': 'lsq'})
     """
-    from . import __version__
-
     if command is None:
         command = list(sys.argv)
     elif isinstance(command, (str, os.PathLike)):
@@ -171,7 +170,7 @@ def with_provenance(obj: Mapping, prov: Mapping) -> dict:
     Returns
     -------
     dict
-        JSON-safe (:func:`skin_indent._json.jsonable`).
+        JSON-safe (:func:`skin_indent.runtime.json_io.jsonable`).
     """
     return jsonable({**dict(obj), "provenance": dict(prov)})
 

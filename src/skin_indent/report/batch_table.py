@@ -11,6 +11,9 @@ import math
 from pathlib import Path
 
 import numpy as np
+from ..fitting import MISFIT_LIMIT
+from ..runtime.atomic import atomic_write
+from ..runtime.provenance import provenance_comment_lines
 
 __all__ = ["summary_figure", "write_tsv"]
 
@@ -29,6 +32,14 @@ def _cell(value) -> str:
     return " ".join(str(value).replace("\t", " ").split())
 
 
+def _columns(rows) -> tuple:
+    """The table columns of rows of one dataclass (:class:`skin_indent.batch.BatchRow`)."""
+    import dataclasses
+
+    return tuple(f.name for f in dataclasses.fields(rows[0]) if f.name not in ("fit", "parameters", "std")) if rows \
+        else ()
+
+
 def write_tsv(rows, path, provenance: dict | None = None) -> Path:
     """Write the rows as a tab-separated table, one line per curve, after a provenance header.
 
@@ -39,7 +50,7 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
     path : path
         The TSV file (written atomically, mode 0644 under the usual umask).
     provenance : dict, optional
-        :func:`skin_indent.provenance.provenance`; default the rows' own
+        :func:`skin_indent.runtime.provenance.provenance`; default the rows' own
         (``rows.provenance`` of a :class:`BatchResult`).
 
     Returns
@@ -52,20 +63,17 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
     the fitted models beyond E_kPa, nu and the contact point (``thickness_mm``, ``ratio``...): units in
     the names (mm, mN, kPa); empty cells for
     missing values, ``nan`` for numbers not computed; ``flags`` joined by ``" | "``.
-    ``#`` lines come first (:func:`skin_indent.provenance.provenance_comment_lines`;
-    read them back with :func:`skin_indent.provenance.read_provenance`), so
+    ``#`` lines come first (:func:`skin_indent.runtime.provenance.provenance_comment_lines`;
+    read them back with :func:`skin_indent.runtime.provenance.read_provenance`), so
     ``pandas.read_csv(path, sep="\\t", comment="#")`` reads the table.
     """
-    from ._atomic import atomic_write
-    from .batch import TSV_COLUMNS
-    from .provenance import provenance_comment_lines
-
     prov = provenance if provenance is not None else getattr(rows, "provenance", None)
     lines = provenance_comment_lines(prov) if prov else []
     extra = list(dict.fromkeys(k for r in rows for k in getattr(r, "parameters", {}) if k not in ("E_kPa", "nu", "offset_mm")))
-    lines.append("\t".join([*TSV_COLUMNS, *(c for k in extra for c in (k, f"{k}_sd"))]))
+    columns = rows.columns if hasattr(rows, "columns") else _columns(rows)
+    lines.append("\t".join([*columns, *(c for k in extra for c in (k, f"{k}_sd"))]))
     for r in rows:
-        cells = [_cell(getattr(r, c)) for c in TSV_COLUMNS]
+        cells = [_cell(getattr(r, c)) for c in columns]
         for k in extra:
             cells += [_cell(r.parameters.get(k, math.nan)), _cell(r.std.get(k, math.nan) if k in r.parameters else
                                                                    math.nan)]
@@ -98,10 +106,6 @@ def summary_figure(rows, path, *, title: str | None = None) -> Path:
     import io
 
     from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
-
-    from .fitting import MISFIT_LIMIT
-
-    from ._atomic import atomic_write
 
     rows = list(rows)
     maps: dict = {}

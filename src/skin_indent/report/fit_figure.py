@@ -22,6 +22,8 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+from ..runtime.atomic import atomic_write
+from ..runtime.provenance import provenance_comment_lines
 
 __all__ = ["fit_arrays", "plot_fit", "write_fit_csv"]
 
@@ -105,8 +107,6 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Pa
     """
     from matplotlib.figure import Figure
 
-    from ._atomic import atomic_write
-
     a = fit_arrays(curve_fit)
     p = curve_fit.prepared
     m = p.measurement
@@ -166,7 +166,7 @@ def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
     path : path
         The CSV (written atomically, mode 0644 under the usual umask).
     provenance : dict, optional
-        :func:`skin_indent.provenance.provenance`, written as ``#`` comment lines.
+        :func:`skin_indent.runtime.provenance.provenance`, written as ``#`` comment lines.
 
     Returns
     -------
@@ -180,9 +180,6 @@ def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
     radius (``# radius_mm: R``), the contact point, E and nu, so that
     :func:`skin_indent.measurement.load_csv` reads the file back as a curve with its radius.
     """
-    from ._atomic import atomic_write
-    from .provenance import provenance_comment_lines
-
     a = fit_arrays(curve_fit)
     lines = provenance_comment_lines(provenance) if provenance else []
     lines += [f"# radius_mm: {curve_fit.radius_mm:.10g}",

@@ -11,7 +11,7 @@ they arrive: a killed worker, or a killed caller, loses only the runs not yet fi
   process that dies (killed, out of memory, a crash in native code) breaks the pool:
   it is restarted and the calls in flight are retried one at a time; a call that kills
   its worker twice when running alone is reported as failed (:class:`WorkerDied`).
-  Each worker uses one BLAS thread (:mod:`skin_indent._threads`: set in its environment
+  Each worker uses one BLAS thread (:mod:`skin_indent.runtime.threads`: set in its environment
   when it starts and by its initializer), and this process one while they run.
 * :class:`DaskExecutor`: a ``dask.distributed.Client``, given or connected to a
   scheduler address (``tcp://HOST:PORT``). Dask is optional (``pip install
@@ -20,7 +20,7 @@ they arrive: a killed worker, or a killed caller, loses only the runs not yet fi
   ``KilledWorker``. Every worker needs the same ``skin_indent`` installed. Before the
   first call each worker undoes the nanny's ``MALLOC_TRIM_THRESHOLD_`` (see
   :func:`tune_malloc`), which would slow the finite-element model ~1.8x, and limits its
-  BLAS threads to one (:func:`skin_indent._threads.init_worker`).
+  BLAS threads to one (:func:`skin_indent.runtime.threads.init_worker`).
 
 :func:`make_executor` picks one from the ``workers``, ``client`` and ``scheduler``
 arguments that :meth:`ResponseSurface.build` takes.
@@ -33,7 +33,7 @@ import os
 import pickle
 from typing import Any, Callable, Hashable, Iterable, Iterator
 
-from .._threads import WORKER_THREADS, init_worker, limit_threads, worker_environment
+from .threads import WORKER_THREADS, init_worker, limit_threads, worker_environment
 
 Outcome = tuple  # (tag, value or None, exception or None)
 
@@ -97,7 +97,7 @@ def _call_limited(fn, *args):
     return fn(*args)
 
 
-def _import_distributed():
+def import_distributed():
     try:
         import distributed
     except ImportError:
@@ -348,7 +348,7 @@ class DaskExecutor(Executor):
 
     def __init__(self, client=None, scheduler: str | None = None, *, in_flight: int | None = None,
                  malloc_tuning: bool = True):
-        distributed = _import_distributed()
+        distributed = import_distributed()
         if (client is None) == (scheduler is None):
             raise ValueError("give exactly one of client= and scheduler=")
         self._own = client is None
@@ -384,7 +384,7 @@ class DaskExecutor(Executor):
             raise TypeError(f"unit_curve cannot be serialised for Dask ({exc})") from None
 
     def imap_unordered(self, fn, tasks):
-        distributed = _import_distributed()
+        distributed = import_distributed()
         import uuid
 
         tasks = iter(tasks)
