@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 from .fitting import fit
 from .fitting import surface_for
-from .fitting.model_fit import MAX_POINTS, parse_model
+from .fitting.model_fit import parse_model, prepare_curve
 from .fitting.surfaces import SIMILARITY_RATIOS
 from .measurement import MeasurementError
-from .measurement import SEGMENTS, load_curve, load_curves, prepare
+from .measurement import load_curve, load_curves, prepare
 from .report.batch_table import summary_figure, write_tsv
 from .report.fit_figure import plot_fit, write_fit_csv
 from .runtime.context import Context, context_of
@@ -458,27 +458,35 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
 
     x0 = None if x0 is None else np.asarray(x0, dtype=float)
     tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol, x0)) for i in pending if i in surface_of]
-    if tasks:
-        from tqdm.auto import tqdm
-
-        executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
-        bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress or len(tasks) < 2)
-        try:
-            for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
-                base, prepared = rows[i]
-                result, message = value if err is None else (None, _one_line(err))
-                if result is None:
-                    rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, error=message)
-                else:
-                    row = _row_of(base, result, surface_of[i])
-                    if plot_dir is not None:
-                        row = _write_plots(row, result, plot_dir, prov)
-                    rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})
-                bar.update(1)
-        finally:
-            bar.close()
-            executor.close()
+    _run(tasks, rows, ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir, prov=prov,
+         surface_of=surface_of)
     return BatchResult(rows, provenance=prov, surfaces=surfaces)
+
+
+def _run(tasks, rows, ctx, *, progress, keep_fits, plot_dir, prov, surface_of=None, model=None) -> None:
+    """The fits of ``tasks`` on the context's executor, each result (or error) put in its row."""
+    if not tasks:
+        return
+    from tqdm.auto import tqdm
+
+    executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
+    bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress or len(tasks) < 2)
+    try:
+        for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
+            base, prepared = rows[i]
+            result, message = value if err is None else (None, _one_line(err))
+            extra = {} if model is None else {"model": model}
+            if result is None:
+                rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, error=message, **extra)
+            else:
+                row = _row_of(base, result, None if surface_of is None else surface_of[i])
+                if plot_dir is not None:
+                    row = _write_plots(row, result, plot_dir, prov)
+                rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})
+            bar.update(1)
+    finally:
+        bar.close()
+        executor.close()
 
 
 def _fit_many_model(files, model, priors, *, index, radius_mm, fixed, mesh, ctx, progress, keep_fits, plot_dir,
@@ -499,7 +507,7 @@ def _fit_many_model(files, model, priors, *, index, radius_mm, fixed, mesh, ctx,
             k = m.columns.get("reader", {}).get("index", i if index is None else index)
             base = {"file": os.fspath(path), "index": k, **_map_position(m)}
             try:
-                prepared = prepare(m, segments=SEGMENTS, radius_mm=radius_mm, max_points=MAX_POINTS)
+                prepared = prepare_curve(m, radius_mm=radius_mm)
             except Exception as err:  # noqa: BLE001
                 rows.append(BatchRow(**base, model=model, error=_one_line(err)))
                 continue
@@ -512,26 +520,7 @@ def _fit_many_model(files, model, priors, *, index, radius_mm, fixed, mesh, ctx,
     # each worker fits on one core; their surfaces and runs are shared through the cache
     inner = Context(cache_dir=ctx.cache_dir, workers=1, progress=False)
     tasks = [(i, (rows[i][1], None, "lsq", fixed, None, None, model, priors, inner, mesh)) for i in pending]
-    if tasks:
-        from tqdm.auto import tqdm
-
-        executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
-        bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress or len(tasks) < 2)
-        try:
-            for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
-                base, prepared = rows[i]
-                result, message = value if err is None else (None, _one_line(err))
-                if result is None:
-                    rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, model=model, error=message)
-                else:
-                    row = _row_of(base, result, None)
-                    if plot_dir is not None:
-                        row = _write_plots(row, result, plot_dir, prov)
-                    rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})
-                bar.update(1)
-        finally:
-            bar.close()
-            executor.close()
+    _run(tasks, rows, ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir, prov=prov, model=model)
     return BatchResult(rows, provenance=prov)
 
 

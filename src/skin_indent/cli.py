@@ -379,14 +379,14 @@ def _run_fit(args) -> int:
 def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     """One curve: the report (or JSON), errors as one line (exit 2), flags as warnings."""
     from .fitting import fit
-    from .measurement import SEGMENTS, prepare
+    from .measurement import prepare
     from .runtime.provenance import provenance
 
     chosen = args.model is not None or bool(args.priors)
     if chosen:
-        from .fitting.model_fit import MAX_POINTS
+        from .fitting.model_fit import prepare_curve
 
-        prepared = prepare(measurement, segments=SEGMENTS, radius_mm=args.radius, max_points=MAX_POINTS)
+        prepared = prepare_curve(measurement, radius_mm=args.radius)
     else:
         prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
     path = args.data[0]

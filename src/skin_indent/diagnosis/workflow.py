@@ -60,8 +60,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..effects import EFFECTS, WEIGHED, effect, instances
-from ..measurement import SEGMENTS, Measurement, PreparedCurve, prepare
+from ..measurement import SEGMENTS, PreparedCurve
 from .evidence import suggest_measurement
+from ..fitting.model_fit import curve_noise, prepare_curve
 from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung, evidence
 from ..models.composed import at_physical_limit
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
@@ -69,8 +70,6 @@ from ..inverse.residuals import effective_sample_size
 from ..runtime.context import context_of
 from ..runtime.json_io import jsonable
 
-#: at most this many points are fitted (longer curves are averaged in bins, in time order)
-MAX_POINTS = 400
 #: BIC drop that names an effect
 STRONG = 10.0
 #: BIC difference under which two candidates explain the data equally well: ``ambiguous``
@@ -688,20 +687,8 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
             raise ValueError(f"add {name}: it is weighed, not fitted; no fitted model has it yet")
     if isinstance(max_rungs, bool) or not isinstance(max_rungs, int) or max_rungs < 0:
         raise ValueError(f"max_rungs must be an integer >= 0, got {max_rungs!r}")
-    if isinstance(measurement, PreparedCurve):
-        data = measurement
-    else:
-        if radius_mm is not None and not (math.isfinite(radius_mm) and radius_mm > 0):
-            raise ValueError(f"radius must be a positive number of mm, got {radius_mm}")
-        data = prepare(measurement, segments=tuple(segments), radius_mm=radius_mm, max_points=MAX_POINTS)
-    if noise_mN is None:
-        sigma, source = data.high_frequency_noise_mN(), "estimated from the data (local cubic prediction)"
-        if data.binned > 1:
-            source += f" after averaging bins of {data.binned} samples"
-    else:
-        if not (math.isfinite(noise_mN) and noise_mN > 0):
-            raise ValueError(f"noise must be a positive number of mN, got {noise_mN}")
-        sigma, source = float(noise_mN) / math.sqrt(data.binned), "given"
+    data = prepare_curve(measurement, radius_mm=radius_mm, segments=segments)
+    sigma, source = curve_noise(data, noise_mN)
     fitter = Fitter(data, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop)
     for i in range(len(add) + 1):
         fitter.fit(add[:i])

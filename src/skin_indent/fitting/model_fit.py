@@ -61,6 +61,17 @@ def model_name(effects) -> str:
     return BASE_MODEL + "".join(f"+{e}" for e in effects)
 
 
+def prepare_curve(data, *, radius_mm: float | None = None, segments=SEGMENTS) -> PreparedCurve:
+    """A recorded curve prepared for any model and for the diagnosis: every segment kept (or
+    ``segments``), longer curves averaged in bins down to :data:`MAX_POINTS`; a prepared curve
+    is taken as it is."""
+    if isinstance(data, PreparedCurve):
+        return data
+    if radius_mm is not None and not (math.isfinite(radius_mm) and radius_mm > 0):
+        raise ValueError(f"radius must be a positive number of mm, got {radius_mm}")
+    return prepare(data, segments=tuple(segments), radius_mm=radius_mm, max_points=MAX_POINTS)
+
+
 def curve_noise(data: PreparedCurve, noise_mN: float | None = None) -> tuple[float, str]:
     """The noise level of a prepared curve (mN) and where it comes from: given (per raw sample,
     divided by sqrt of the bin size), or estimated from the data (local cubic prediction)."""
@@ -133,12 +144,7 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     """
     effects = parse_model(model)
     context = context_of(context)
-    if isinstance(data, PreparedCurve):
-        prepared = data
-    else:
-        if radius_mm is not None and not (math.isfinite(radius_mm) and radius_mm > 0):
-            raise ValueError(f"radius must be a positive number of mm, got {radius_mm}")
-        prepared = prepare(data, segments=tuple(segments), radius_mm=radius_mm, max_points=MAX_POINTS)
+    prepared = prepare_curve(data, radius_mm=radius_mm, segments=segments)
     sigma, source = curve_noise(prepared, noise_mN)
     fitter = Fitter(prepared, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
