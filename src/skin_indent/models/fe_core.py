@@ -101,7 +101,8 @@ SECANT_REFRESH = 3
 def _solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float, sensitivities: bool,
                 increments: int = INCREMENTS, first: float = 0.01):
     """One unit-modulus run to the ceiling (a worker task): ``increments`` geometric depths
-    from ``first`` times the ceiling.
+    from ``first`` times the ceiling, and a layered sample's depths near a rigid base
+    (:meth:`~skin_indent.mechanics.layers.LayeredSample.squeeze_depths_mm`).
 
     Returns the solved depths (mm), the forces there (mN) and, with ``sensitivities``,
     their derivatives with respect to every material parameter (direct differentiation,
@@ -111,6 +112,9 @@ def _solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float,
     from ..simulate import simulate
 
     depths = np.geomspace(first * ceiling_mm, ceiling_mm, increments)
+    squeeze = getattr(sample, "squeeze_depths_mm", None)  # a layer squeezed on a rigid base: depths near it
+    if squeeze is not None:
+        depths = np.union1d(depths, squeeze(ceiling_mm))
     curve = simulate(sample, SphericalIndenter(radius_mm), depths, mesh=imesh, rtol=rtol, solve_at_outputs=True,
                      sensitivities=sensitivities)
     return curve.solved_depth_mm, curve.solved_force_mN, curve.sensitivities
