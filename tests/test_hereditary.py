@@ -1,4 +1,4 @@
-"""Lee-Radok / Ting force histories over an elastic curve (response_surface.hereditary)."""
+"""Lee-Radok / Ting force histories over an elastic curve (effects.hereditary)."""
 
 import numpy as np
 import pytest

@@ -20,6 +20,7 @@ from skin_indent.diagnosis import identifiability as idf
 from skin_indent.effects import EffectParameter, Model
 from skin_indent.measurement import measurement_from_arrays, prepare
 from skin_indent.models import ComposedModel
+from skin_indent.models.composed import at_physical_limit
 from skin_indent.models.fe_core import FECore
 from skin_indent.protocol import Protocol
 
@@ -213,12 +214,12 @@ def test_physical_limits_are_declared_not_named():
         x = mid.copy()
         i = model.parameter_names.index(name)
         x[i] = lo[i] if face == "lower" else hi[i]
-        return idf.at_physical_limit(model, x, name)
+        return at_physical_limit(model, x, name)
 
     assert at("compliance2", "lower") and at("compliance", "lower") and at("nu", "upper")
     assert not any([at("compliance2", "upper"), at("nu", "lower"), at("thickness_mm", "lower"),
                     at("thickness2_mm", "upper"), at("E_kPa", "lower")])
-    assert not idf.at_physical_limit(model, mid, "no such parameter")
+    assert not at_physical_limit(model, mid, "no such parameter")
     with pytest.raises(ValueError, match="physical_limit"):
         EffectParameter("x", "-", 0.0, 1.0, None, False, "x", physical_limit="top")
 
