@@ -19,8 +19,11 @@ Where things live
 - ``skin_indent.models``: force models for fits (elastic core plus effects, Hertz).
 - ``skin_indent.inverse``: identification (EKF as in Delalleau et al. 2006, least squares,
   uncertainty, identifiability).
-- ``skin_indent.fitting``: from a recorded curve to parameters (:func:`fit`).
-- ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`).
+- ``skin_indent.fitting``: from a recorded curve to parameters (:func:`fit`), for the paper's
+  half-space or any model, with values held and priors; the multistart fitter.
+- ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`): it orders and compares fits.
+- ``skin_indent.report``: every figure, table and page the package writes.
+- ``skin_indent.runtime``: context, executors, threads, atomic writes, JSON, provenance.
 - ``skin_indent.cli``: the ``skin-indent`` command.
 """
 
@@ -71,7 +74,7 @@ _RENAMED = {"register_effect": "register", "MaterialLayer": "Layer", "Viscoelast
 __all__ = ["__version__", *_EXPORTS]
 #: the subpackages, listed by ``dir(skin_indent)`` with the names above
 _SUBPACKAGES = ("measurement", "mechanics", "effects", "response_surface", "models", "inverse", "fitting",
-                "diagnosis", "cli")
+                "diagnosis", "report", "runtime", "cli")
 
 
 def __dir__():
