@@ -20,7 +20,7 @@ import pytest
 from _data import DATA
 from skin_indent.cli import main
 from skin_indent.fitting import fit
-from skin_indent.fitting.multistart import prior_summary
+from skin_indent.fitting.knowledge import prior_summary
 from skin_indent.inverse import fit_least_squares
 
 #: the hidden-effect curves were made with this noise (tests/data/hidden-effects/README.md)

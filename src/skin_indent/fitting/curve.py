@@ -65,7 +65,7 @@ class CurveFit(IdentificationResult):
         The model fitted: ``neo-hooke`` plus ``+effect`` for each effect.
     priors : dict
         Per parameter given a prior: prior, posterior, how much the data narrowed it
-        (:func:`~skin_indent.fitting.multistart.prior_summary`).
+        (:func:`~skin_indent.fitting.knowledge.prior_summary`).
     error_model : dict
         How each point was weighed (``fit(model=...)``: noise and model error in quadrature;
         empty for the half-space fit of the paper's path, weighed by the noise alone).

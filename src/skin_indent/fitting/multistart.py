@@ -12,12 +12,13 @@ import numpy as np
 
 from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, instances, numbered
 from ..inverse import IdentificationResult
-from ..inverse.residuals import analyse_residuals, describe_structure
 from ..inverse import fit_least_squares
+from ..inverse.residuals import analyse_residuals, describe_structure
 from ..inverse.result import jacobian_covariance
 from ..models import ComposedModel
 from ..runtime.json_io import jsonable
 from .identification import hertz_modulus
+from .knowledge import prior_summary, solve_coordinate
 from .surfaces import elastic_core
 
 #: relative accuracy of the forward model (FE + surface), added to the noise in quadrature
@@ -217,7 +218,7 @@ class Fitter:
                 raise ValueError(f"{k} cannot be held on its own in {model.name}: it depends on "
                                  f"{', '.join(names[j] for j in moves)}; hold those instead")
             j = free[0]
-            out[names[j]] = _solve_coordinate(model, x, j, k, value)
+            out[names[j]] = solve_coordinate(model, x, j, k, value)
         return out
 
     def prior_terms(self, model) -> list:
@@ -619,37 +620,6 @@ class Fitter:
         return rung
 
 
-#: posterior sd over prior sd below which the data determined a parameter, above which the prior did
-DATA_DETERMINED, PRIOR_DETERMINED = 0.5, 0.9
-#: a prior and the data disagree when the data alone put the parameter this many combined sd away
-TENSION = 3.0
-
-
-def prior_summary(posterior: float, posterior_sd: float, mean: float, sd: float) -> dict:
-    """What the data did to a Gaussian prior ``mean +- sd`` on one parameter.
-
-    ``narrowed`` = posterior sd / prior sd (1: the data added nothing); ``determined_by``
-    ``"data"`` (below :data:`DATA_DETERMINED`), ``"prior"`` (above :data:`PRIOR_DETERMINED`)
-    or ``"both"``; ``tension`` = how many combined sd separate the prior from what the data
-    alone say (the linear-Gaussian data-alone estimate, ``1/s_d^2 = 1/s_post^2 - 1/s_prior^2``),
-    flagged above :data:`TENSION`.
-    """
-    ratio = posterior_sd / sd if math.isfinite(posterior_sd) else math.nan
-    if not math.isfinite(ratio):
-        by = "unknown"
-    else:
-        by = "data" if ratio < DATA_DETERMINED else "prior" if ratio > PRIOR_DETERMINED else "both"
-    tension = math.nan
-    if math.isfinite(ratio) and 0 < ratio < 1:
-        info_data = 1 / posterior_sd**2 - 1 / sd**2
-        sd_data = 1 / math.sqrt(info_data)
-        alone = (posterior / posterior_sd**2 - mean / sd**2) / info_data
-        tension = abs(alone - mean) / math.hypot(sd_data, sd)
-    return {"prior_mean": mean, "prior_sd": sd, "posterior": posterior, "posterior_sd": posterior_sd,
-            "narrowed": ratio, "determined_by": by, "tension_sd": tension,
-            "in_tension": bool(math.isfinite(tension) and tension > TENSION)}
-
-
 def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:
     """AIC and BIC of a fit from its weighted chi-square (:attr:`Rung.BIC_FORMULA`).
 
@@ -661,33 +631,6 @@ def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -
     m = float(n if n_eff is None else n_eff)
     chi2 = chi2_weighted * m / n
     return chi2 + 2.0 * k, chi2 + k * math.log(m)
-
-
-def _solve_coordinate(model, x, j: int, name: str, value: float) -> float:
-    """The fit coordinate ``j`` at which the reported parameter ``name`` equals ``value`` (the other
-    coordinates as in ``x``); ``ValueError`` when no value of the coordinate's range gives it."""
-    from scipy.optimize import brentq
-
-    lo, hi = model.bounds[0][j], model.bounds[1][j]
-
-    def reported(t):
-        y = np.array(x, dtype=float)
-        y[j] = t
-        return float(model.model_parameters(y)[name])
-
-    for end in (lo, hi):
-        if math.isfinite(end) and reported(end) == value:
-            return float(end)
-    top = hi if math.isfinite(hi) else max(lo, 0.0) + 1e6
-    grid = np.linspace(lo, top, 401)
-    values = np.array([reported(t) for t in grid])
-    diff = values - value
-    for a, b, fa, fb in zip(grid[:-1], grid[1:], diff[:-1], diff[1:]):
-        if math.isfinite(fa) and math.isfinite(fb) and fa * fb <= 0:
-            return float(a if fa == 0 else brentq(lambda t: reported(t) - value, a, b, xtol=1e-14, rtol=1e-12))
-    finite = values[np.isfinite(values)]
-    span = f"{finite.min():.4g} to {finite.max():.4g}" if finite.size else "none"
-    raise ValueError(f"{name} = {value:g} is outside what {model.name} can take (from {span})")
 
 
 def _cost(result) -> float:
