@@ -67,8 +67,8 @@ class CurveFit(IdentificationResult):
         Per parameter given a prior: prior, posterior, how much the data narrowed it
         (:func:`~skin_indent.fitting.knowledge.prior_summary`).
     error_model : dict
-        How each point was weighed (``fit(model=...)``: noise and model error in quadrature;
-        empty for the half-space fit of the paper's path, weighed by the noise alone).
+        How the chi-square and BIC weigh each point (``fit(model=...)``: noise and model error in
+        quadrature; empty for the half-space fit of the paper's path, weighed by the noise alone).
     """
 
     prepared: object = None
@@ -175,8 +175,9 @@ class CurveFit(IdentificationResult):
                          f"kPa; Hertz's homogeneous small-strain fit of the loading points {h['E_star_kPa']:.5g} "
                          f"+/- {h['E_star_std_kPa']:.2g} kPa")
         if self.error_model:
-            lines.append(f"error model: each point weighed by sqrt(noise^2 + ({self.error_model['model_error']:g} "
-                         "F)^2), noise and the forward model's relative error; chi-square and BIC with it")
+            lines.append(f"error model: chi-square and BIC weigh each point by sqrt(noise^2 + "
+                         f"({self.error_model['model_error']:g} F)^2), the noise and the forward model's relative "
+                         "error (the fit itself is unweighted least squares)")
         q = self.quality
         if q:
             lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN:.3g} mN = {q['misfit']:.2g} x the noise "

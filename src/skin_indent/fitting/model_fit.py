@@ -131,8 +131,8 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     Returns
     -------
     CurveFit
-        ``model`` names the model; ``chi2`` is weighted by the error model (noise and model
-        error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
+        ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
+        model error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
         ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.multistart.evidence`).
 
     Examples
