@@ -181,7 +181,7 @@ class Fitter:
         return np.sqrt(self.noise_mN**2 + (MODEL_ERROR * np.abs(force)) ** 2)
 
     def error_model(self) -> dict:
-        """The error model in words and numbers (what every fit of this curve is weighed with)."""
+        """The error model in words and numbers (how the chi-square and BIC of every fit of this curve weigh it)."""
         return {"noise_mN": self.noise_mN, "model_error": MODEL_ERROR,
                 "sigma": "sqrt(noise^2 + (model_error * F)^2)"}
 
