@@ -36,6 +36,7 @@ from .fitting.model_fit import parse_model, prepare_curve
 from .fitting.surfaces import SIMILARITY_RATIOS
 from .measurement import MeasurementError
 from .measurement import load_curve, load_curves, prepare
+from .measurement._files import folder_files
 from .report.batch_table import summary_figure, write_tsv
 from .report.fit_figure import plot_fit, write_fit_csv
 from .runtime.context import Context, context_of
@@ -232,15 +233,18 @@ def _written_by_us(path: Path) -> bool:
         return False
 
 
-def expand_paths(paths) -> list[Path]:
+def expand_paths(paths, *, recursive: bool = False) -> list[Path]:
     """Files to read: a file as given, a folder's files with a readable suffix (sorted).
 
     Parameters
     ----------
     paths : path or iterable of paths
-        Files and folders. A folder is not searched recursively; its hidden files and the
-        package's own outputs (a results table or fit CSV written there, recognised by
-        their first line ``# written by skin_indent``) are left out.
+        Files and folders. A folder's hidden files and folders and the package's own outputs
+        (a results table or fit CSV written there, recognised by their first line
+        ``# written by skin_indent``) are left out.
+    recursive : bool
+        Search the folders' subfolders too, at every depth (default: only the files directly
+        in each folder, so results and plot folders written inside it stay out of the way).
 
     Returns
     -------
@@ -253,9 +257,8 @@ def expand_paths(paths) -> list[Path]:
     out, seen = [], set()
     for p in paths:
         p = Path(os.fspath(p))
-        found = (sorted(q for q in p.iterdir() if q.is_file() and not q.name.startswith(".")
-                        and any(q.name.lower().endswith(s) for s in READABLE_SUFFIXES) and not _written_by_us(q))
-                 if p.is_dir() else [p])
+        found = (folder_files(p, READABLE_SUFFIXES, recursive=recursive, skip=_written_by_us) if p.is_dir()
+                 else [p])
         for q in found:
             key = os.path.abspath(q)
             if key not in seen:
@@ -289,12 +292,13 @@ def _surface_hash(surface) -> str:
     return str(origin["hash"]) if origin and "hash" in origin else str(getattr(surface, "hash", ""))
 
 
-def _fit_task(prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, context=None, mesh=None):
+def _fit_task(prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, context=None, mesh=None,
+              free=()):
     """One fit in a worker: ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
     try:
         if model is not None:
             return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh), None
-        return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0), None
+        return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0, free=free), None
     except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
         return None, _one_line(err)
 
@@ -324,7 +328,8 @@ def _plot_name(row: BatchRow) -> str:
 def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None, window=None,
              contact: str = "auto", fixed: dict | None = None, method: str = "lsq", mesh: str | None = None,
              context=None, progress: bool = True, surface=None, tol: float | None = None, x0=None,
-             keep_fits: bool = False, plot_dir=None, command=None, model=None, priors=None) -> BatchResult:
+             keep_fits: bool = False, plot_dir=None, command=None, model=None, priors=None, free=(),
+             recursive: bool = False) -> BatchResult:
     """Fit every curve of every file, in parallel; one :class:`BatchRow` per curve.
 
     Parameters
@@ -345,7 +350,12 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         Contact point (:func:`skin_indent.measurement.prepare`).
     fixed : dict, optional
         Parameters held fixed: ``E_kPa``, ``nu``, ``offset_mm`` (the contact point,
-        recorded depth in mm; ``contact_point_mm`` is taken as the same).
+        recorded depth in mm; ``contact_point_mm`` is taken as the same). Default as
+        :func:`skin_indent.fitting.fit`: nu = 0.5 for AFM-scale curves (radius < 0.5 mm).
+    free : sequence of str
+        ``("nu",)``: fit nu where the scale's default holds it (AFM scale).
+    recursive : bool
+        Search folders' subfolders too (:func:`expand_paths`).
     method : {"lsq", "ekf", "ekf-paper"}
     mesh : str, optional
         Mesh preset of surfaces that have to be built (``"coarse"``, ``"medium"``, ``"fine"``;
@@ -395,10 +405,11 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
     if "contact_point_mm" in fixed:
         fixed["offset_mm"] = fixed.pop("contact_point_mm")
     ctx = context_of(context)
-    files = expand_paths(paths)
+    files = expand_paths(paths, recursive=recursive)
+    free = tuple(free or ())
     if model is not None or priors:
         given = [k for k, v in (("window", window), ("contact", None if contact == "auto" else contact),
-                                ("surface", surface), ("x0", x0), ("tol", tol),
+                                ("surface", surface), ("x0", x0), ("tol", tol), ("free", free or None),
                                 ("method", None if method == "lsq" else method)) if v is not None]
         if given:
             raise ValueError(f"a fit of a chosen model prepares each curve as the diagnosis does (least squares): "
@@ -452,12 +463,13 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
 
     radii = sorted({rows[i][1].radius_mm for i in pending if isinstance(rows[i], tuple)})
     settings = {"radius_mm": radius_mm, "radii_mm": radii, "index": index, "window_mm": window, "contact": contact,
-                "fixed": fixed, "method": method, "mesh": mesh, "tol": tol, "x0": x0,
+                "fixed": fixed, "free": list(free), "method": method, "mesh": mesh, "tol": tol, "x0": x0,
                 "surface": None if surface is None else "given (see surface)"}
     prov = make_provenance(command=command, inputs=files, settings=settings, surface=surfaces)
 
     x0 = None if x0 is None else np.asarray(x0, dtype=float)
-    tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol, x0)) for i in pending if i in surface_of]
+    tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol, x0, None, None, None, None, free))
+             for i in pending if i in surface_of]
     _run(tasks, rows, ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir, prov=prov,
          surface_of=surface_of)
     return BatchResult(rows, provenance=prov, surfaces=surfaces)

@@ -260,6 +260,8 @@ def _add_fit(sub):
     p.add_argument("data", type=Path, nargs="+",
                    help="measurement files or folders: CSV, Chiaro .txt, or .jpk-force / .jpk-force-map etc. with "
                         "afmformats installed; several curves (a folder, a force map) are fitted in parallel")
+    p.add_argument("--recursive", "-r", action="store_true",
+                   help="search folders and their subfolders (default: the files directly in each folder)")
     p.add_argument("--out", type=Path, default=None, help="write one TSV row per curve, with a provenance header")
     p.add_argument("--index", type=int, default=None, help="fit only curve N (from 0) of each file")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
@@ -287,7 +289,11 @@ def _add_fit(sub):
     p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                    help="hold a parameter fixed (repeatable): E_kPa, nu or contact_point_mm, e.g. --fix nu=0.5 "
                         "(the incompressible limit of the compressible FE law); with --model any parameter the "
-                        "results report, e.g. --fix thickness_mm=1.2 (the top layer) or --fix ratio=inf")
+                        "results report, e.g. --fix thickness_mm=1.2 (the top layer) or --fix ratio=inf. Default: "
+                        "nu = 0.5 at AFM scale (sphere radius < 0.5 mm, the field's convention; results then in Pa, "
+                        "nN, um), nothing at skin scale (nu fitted, as in the paper)")
+    p.add_argument("--free", action="append", default=[], choices=("nu",),
+                   help="fit a parameter the scale's default holds: --free nu fits nu at AFM scale")
     p.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
                    help="a Gaussian prior from an independent measurement (repeatable), e.g. --prior "
                         "thickness_mm=1.2:0.1 (ultrasound); implies the model path (--model, default neo-hooke)")
@@ -299,8 +305,9 @@ def _add_fit(sub):
     p.add_argument("--tol", type=float, default=None, help="stop rule C of the filters (default 1e-6)")
     p.add_argument("--strict", action=argparse.BooleanOptionalAction, default=None,
                    help="exit with status 3 when a curve failed or is flagged as not to be trusted (a parameter at a "
-                        "bound, a misfit over 10 times the noise); default on for several curves, off for one. "
-                        "Flags are always printed as warnings")
+                        "bound, a misfit over 10 times the noise, a scale no tissue has: E outside 10 Pa-100 MPa, h/R "
+                        "< 1e-3, fewer than 5 points in contact per parameter, a parameter's sd above its value); "
+                        "default on for several curves, off for one. Flags are always printed as warnings")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=_run_fit)
 
@@ -320,7 +327,7 @@ def _positive_radius(radius):
 
 def _fit_settings(args, fixed, window, priors=None) -> dict:
     out = {"radius_mm": args.radius, "window_mm": window, "method": args.method, "mesh": args.mesh,
-           "fixed": fixed, "contact": args.contact, "index": args.index}
+           "fixed": fixed, "free": list(args.free), "contact": args.contact, "index": args.index}
     if args.model is not None or priors:
         out.update(model=args.model or "neo-hooke", priors={k: list(v) for k, v in (priors or {}).items()},
                    noise_mN=args.noise)
@@ -340,6 +347,9 @@ def _run_fit(args) -> int:
     priors = _parse_priors(args.prior)
     chosen = args.model is not None or bool(priors)
     fixed = _parse_fix(args.fix, any_name=chosen)
+    if args.free and (chosen or "nu" in fixed):
+        raise CLIError("--free nu: " + ("a --model/--prior fit fits nu unless --fix holds it" if chosen else
+                                        "nu is also held with --fix; give one of them"))
     if chosen:
         from .fitting.model_fit import parse_model
 
@@ -366,6 +376,8 @@ def _run_fit(args) -> int:
             raise CLIError(f"surface file not found: {args.surface}")
         surface = ResponseSurface.load(args.surface)
     context = Context(workers=args.workers, scheduler=args.scheduler, progress=not args.json)
+    if args.recursive and not any(path.is_dir() for path in args.data):
+        raise CLIError("--recursive searches folders: give a folder")
     if len(args.data) == 1 and args.data[0].is_file() and args.out is None:
         curves = load_curves(args.data[0], radius_mm=args.radius)
         if len(curves) == 1 or args.index is not None:
@@ -391,10 +403,13 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
         prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
     path = args.data[0]
     if not args.json:
-        data = prepared.data
+        from .measurement.scale import display_units
+
+        data, u = prepared.data, display_units(prepared.radius_mm)
         what = "points" if chosen else "loading points"
-        print(f"data: {path} ({data.n_points} {what} from {data.depth_mm.min():.4g} to "
-              f"{data.depth_mm.max():.4g} mm), sphere R = {prepared.radius_mm:g} mm ({prepared.radius_source})"
+        print(f"data: {path} ({data.n_points} {what} from {data.depth_mm.min() * u.per_mm:.4g} to "
+              f"{data.depth_mm.max() * u.per_mm:.4g} {u.length}), sphere R = {prepared.radius_mm * u.per_mm:g} "
+              f"{u.length} ({prepared.radius_source})"
               + (f"; model {args.model or 'neo-hooke'}" if chosen else ""), flush=True)
     if chosen:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
@@ -410,7 +425,7 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
                 raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for "
                                f"{prepared.radius_mm:g} mm") from None
     result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
-                 context=context, mesh=args.mesh)
+                 context=context, mesh=args.mesh, free=args.free)
     prov = provenance(inputs=[path], settings=_fit_settings(args, fixed, window), surface=result.surface)
     return _fit_output(args, path, result, prov)
 
@@ -443,16 +458,17 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     """Every curve of every file: one line (or TSV row) per curve; a bad file is a row, never the end."""
     from .runtime.json_io import dumps
     from .batch import fit_many
-    from .report.batch_table import summary_figure, write_tsv
+    from .report.batch_table import row_line, summary_figure, write_tsv
 
     if args.model is not None or args.priors:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, fixed=fixed, mesh=args.mesh,
                         context=context, progress=not args.json, plot_dir=args.plot, model=args.model or "neo-hooke",
-                        priors=args.priors)
+                        priors=args.priors, recursive=args.recursive)
     else:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, window=window, contact=args.contact,
                         fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=not args.json,
-                        surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot)
+                        surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot, free=args.free,
+                        recursive=args.recursive)
     if args.out is not None:
         write_tsv(rows, args.out)
     if args.plot is not None and rows:
@@ -461,11 +477,7 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
         print(dumps({"rows": [r.to_dict() for r in rows], "provenance": rows.provenance}))
     else:
         for r in rows:
-            extra = "".join(f", {k} = {v:.4g}" for k, v in r.parameters.items() if k not in ("E_kPa", "nu", "offset_mm"))
-            print(f"{r.label}: error: {r.error}" if r.error else
-                  f"{r.label}: E = {r.E_kPa:.5g} kPa, E* = {r.E_star_kPa:.5g} kPa, nu = {r.nu:.3g}{extra}, contact "
-                  f"{r.contact_point_mm:.6g} mm, misfit {r.misfit:.2g} x noise: {r.verdict}"
-                  + (f" [{'; '.join(r.flags)}]" if r.flags else ""))
+            print(row_line(r))
         print(f"{len(rows)} curves: {rows.n_failed} failed, {rows.n_flagged} flagged"
               + (f"; wrote {args.out}" if args.out is not None else "")
               + (f"; figures in {args.plot}" if args.plot is not None else ""))

@@ -23,6 +23,8 @@ from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
 from ..effects import CONTACT_POINT
 from ..inverse.residuals import analyse_residuals
 from ..measurement import PreparedCurve, prepare
+from ..measurement.scale import afm_scale, display_units
+from .scale_checks import check_points, scale_flags
 from ..models import ComposedModel, HertzModel
 from ..runtime.json_io import jsonable
 
@@ -138,8 +140,17 @@ class CurveFit(IdentificationResult):
         })
         return jsonable(out)
 
-    def report(self, digits: int = 5) -> str:
-        """Readable summary: segments, baseline, contact point, fit, Hertz comparison, quality."""
+    def report(self, digits: int = 5, units=None) -> str:
+        """Readable summary: segments, baseline, contact point, fit, Hertz comparison, quality.
+
+        Lengths, forces and moduli are shown in ``units``
+        (:class:`~skin_indent.measurement.scale.DisplayUnits`), default the units of the curve's
+        scale (:func:`~skin_indent.measurement.scale.display_units`: um, nN and Pa for an AFM-scale
+        sphere, mm, mN and kPa for skin); :meth:`to_dict` keeps the package units.
+        """
+        u = units or display_units(self.radius_mm)
+        L, F, M = u.length, u.force, u.modulus
+        kL, kF, kM = u.per_mm, u.per_mN, u.per_kPa
         p = self.prepared
         seg = ", ".join(f"{s.kind} rows {s.start}-{s.stop}" for s in p.segments)
         kinds = [k for k in ("approach", "hold", "retract") if np.any(p.kind == k)]
@@ -150,38 +161,40 @@ class CurveFit(IdentificationResult):
             why = "contact at recorded depth 0" if p.contact_mode == "origin" else "no pre-contact part"
             lines.append(f"baseline: none subtracted ({why}; the force is taken as tared)")
         else:
-            tilt = (f"tilt {b.slope_mN_per_mm:.4g} mN/mm" if b.slope_mN_per_mm else
-                    f"tilt 0 (fitted {p.baseline_fitted.slope_mN_per_mm:.3g} +/- "
-                    f"{p.baseline_fitted.slope_std_mN_per_mm:.2g} mN/mm, not significant)")
-            lines.append(f"baseline: subtracted F = offset + tilt * depth: offset {b.offset_mN:.4g} mN, {tilt} "
-                         f"(robust fit of {b.n_points} pre-contact points, noise {b.noise_mN:.3g} mN)")
+            kT = kF / kL
+            tilt = (f"tilt {b.slope_mN_per_mm * kT:.4g} {F}/{L}" if b.slope_mN_per_mm else
+                    f"tilt 0 (fitted {p.baseline_fitted.slope_mN_per_mm * kT:.3g} +/- "
+                    f"{p.baseline_fitted.slope_std_mN_per_mm * kT:.2g} {F}/{L}, not significant)")
+            lines.append(f"baseline: subtracted F = offset + tilt * depth: offset {b.offset_mN * kF:.4g} {F}, {tilt} "
+                         f"(robust fit of {b.n_points} pre-contact points, noise {b.noise_mN * kF:.3g} {F})")
         if p.contact_mode == "fit":
-            lines.append(f"contact point: {self.contact_point_mm:.6g} +/- {self.contact_point_std_mm:.2g} mm "
-                         f"(fitted jointly; first guess {p.contact_guess_mm:.6g} mm from the deviation from "
+            lines.append(f"contact point: {self.contact_point_mm * kL:.6g} +/- {self.contact_point_std_mm * kL:.2g} {L} "
+                         f"(fitted jointly; first guess {p.contact_guess_mm * kL:.6g} {L} from the deviation from "
                          "the baseline)")
         elif p.contact_mode == "fixed":
-            lines.append(f"contact point: {self.contact_point_mm:.6g} mm (fixed)")
+            lines.append(f"contact point: {self.contact_point_mm * kL:.6g} {L} (fixed)")
         else:
             lines.append("contact point: recorded depth 0 (the curve starts in contact)")
-        lines.append(super().report(digits))
+        lines.append(super().report(digits, units=u))
         h = self.hertz
         if self.model == "neo-hooke":
-            lines.append(f"E* = E/(1-nu^2): large-strain FE {self.e_star_kPa:.5g} +/- {self.e_star_std_kPa:.2g} kPa, "
-                         f"Hertz (small strain, same points) {h['E_star_kPa']:.5g} +/- {h['E_star_std_kPa']:.2g} kPa: "
+            lines.append(f"E* = E/(1-nu^2): large-strain FE {self.e_star_kPa * kM:.5g} +/- "
+                         f"{self.e_star_std_kPa * kM:.2g} {M}, Hertz (small strain, same points) "
+                         f"{h['E_star_kPa'] * kM:.5g} +/- {h['E_star_std_kPa'] * kM:.2g} {M}: "
                          f"FE differs from Hertz by {self.fe_vs_hertz_percent:+.1f}% at h/R up to "
                          f"{self.max_depth_ratio:.3g}")
         else:
-            lines.append(f"E* = E/(1-nu^2) of the top material {self.e_star_kPa:.5g} +/- {self.e_star_std_kPa:.2g} "
-                         f"kPa; Hertz's homogeneous small-strain fit of the loading points {h['E_star_kPa']:.5g} "
-                         f"+/- {h['E_star_std_kPa']:.2g} kPa")
+            lines.append(f"E* = E/(1-nu^2) of the top material {self.e_star_kPa * kM:.5g} +/- "
+                         f"{self.e_star_std_kPa * kM:.2g} {M}; Hertz's homogeneous small-strain fit of the loading "
+                         f"points {h['E_star_kPa'] * kM:.5g} +/- {h['E_star_std_kPa'] * kM:.2g} {M}")
         if self.error_model:
             lines.append(f"error model: chi-square and BIC weigh each point by sqrt(noise^2 + "
                          f"({self.error_model['model_error']:g} F)^2), the noise and the forward model's relative "
                          "error (the fit itself is unweighted least squares)")
         q = self.quality
         if q:
-            lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN:.3g} mN = {q['misfit']:.2g} x the noise "
-                         f"{q['noise_mN']:.3g} mN, {q['noise_source']}; residual "
+            lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN * kF:.3g} {F} = {q['misfit']:.2g} x the noise "
+                         f"{q['noise_mN'] * kF:.3g} {F}, {q['noise_source']}; residual "
                          f"{'white' if q['white'] else 'structured'})")
         lines.extend(f"flag: {f}" for f in self.flags)
         lines.extend(f"note: {n}" for n in self.notes)
@@ -241,7 +254,8 @@ def _independent_noise(prepared) -> tuple[float, str] | None:
 
 def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = "auto", fixed: dict | None = None,
         radius_mm: float | None = None, x0=None, tol: float | None = None, noise_mN: float | None = None,
-        context=None, mesh: str | None = None, model=None, priors: dict | None = None, **options) -> CurveFit:
+        context=None, mesh: str | None = None, model=None, priors: dict | None = None, free=(),
+        **options) -> CurveFit:
     """Fit a recorded curve: the paper's neo-Hookean half-space, or the model you choose.
 
     Without ``model`` (and without ``priors``): the paper's path, the large-strain
@@ -268,7 +282,12 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         ``{"E_kPa": ..., "nu": ..., "offset_mm": ...}`` held fixed (``offset_mm``: the
         contact point, recorded depth in mm). ``nu = 0.5`` is the incompressible limit
         of the compressible finite-element law (see :func:`incompressible_limit`). With a
-        ``model``, any parameter it reports (``thickness_mm``, ``ratio``...).
+        ``model``, any parameter it reports (``thickness_mm``, ``ratio``...). Default: nothing
+        held at skin scale (nu fitted, as in the paper); ``nu = 0.5`` at AFM scale (sphere radius
+        below 0.5 mm, :func:`skin_indent.measurement.scale.afm_scale`), the AFM field's convention.
+    free : sequence of str
+        Parameters fitted that the scale's default holds: ``("nu",)`` fits nu at AFM scale.
+        Not taken with a ``model`` (its fits keep nu free, as the diagnosis).
     radius_mm : float, optional
         Sphere radius (mm); default the measurement's, else the skin default 6.22 mm.
     x0 : array_like, optional
@@ -290,6 +309,15 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     Returns
     -------
     CurveFit
+        With the scale checks' flags (:func:`~skin_indent.fitting.scale_checks.scale_flags`: a
+        modulus no tissue or gel has, h/R below what instruments resolve, few points in contact, a
+        parameter whose sd exceeds its value), each naming the likely slip.
+
+    Raises
+    ------
+    MeasurementError
+        Fewer points in contact than the parameters fitted need
+        (:func:`~skin_indent.fitting.scale_checks.check_points`), and the preparation's refusals.
 
     Examples
     --------
@@ -300,7 +328,12 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    free = tuple(free or ())
+    if set(free) - {"nu"}:
+        raise ValueError(f"free takes nu (held at 0.5 by default at AFM scale), got {', '.join(free)}")
     if model is not None or priors:
+        if free:
+            raise ValueError("a fit of a chosen model fits nu unless it is held (--fix nu=...): free is not taken")
         from .model_fit import fit_model, parse_model
 
         effects = parse_model("neo-hooke" if model is None else model)
@@ -319,15 +352,64 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (they need a model=...)")
     mesh = mesh or "medium"
     fixed = dict(fixed or {})
+    if "nu" in fixed and "nu" in free:
+        raise ValueError(f"nu is both held (at {fixed['nu']:g}) and freed: give one of them")
+    by_default = "nu" not in fixed and "nu" not in free and afm_scale(_radius_of(data, radius_mm))
+    if by_default:
+        fixed["nu"] = 0.5
     if fixed.get("nu") == 0.5:
-        return incompressible_limit(data, surface, method, window=window, contact=contact, fixed=fixed,
-                                    radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context, mesh=mesh)
+        result = incompressible_limit(data, surface, method, window=window, contact=contact, fixed=fixed,
+                                      radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context,
+                                      mesh=mesh)
+        if by_default:
+            result = dataclasses.replace(result, notes=[*result.notes, NU_DEFAULT_NOTE])
+        return result
+    return with_scale_flags(_fit_half_space(data, surface, method, window=window, contact=contact, fixed=fixed,
+                                            radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context,
+                                            mesh=mesh))
+
+
+#: the note of a fit whose nu the AFM scale held
+NU_DEFAULT_NOTE = ("nu = 0.5 held, the default at AFM scale (sphere radius < 0.5 mm: the field's convention); "
+                   "--free nu (free=(\"nu\",)) fits it")
+
+
+def _radius_of(data, radius_mm) -> float:
+    """The sphere radius a fit of ``data`` uses (mm): given, the curve's, else the skin default."""
+    from ..measurement.preparation import SKIN_RADIUS_MM
+
+    for r in (radius_mm, getattr(data, "radius_mm", None)):
+        if r is not None:
+            try:
+                return float(r)
+            except (TypeError, ValueError):
+                return math.nan  # refused in one line by the preparation
+    return SKIN_RADIUS_MM
+
+
+def with_scale_flags(result: CurveFit, at_bounds=None) -> CurveFit:
+    """``result`` with the scale checks' flags appended (:func:`~skin_indent.fitting.scale_checks.scale_flags`)."""
+    bounds = result.info.get("active_bounds", ()) if at_bounds is None else at_bounds
+    extra = [f for f in scale_flags(result, at_bounds=bounds) if f not in result.flags]
+    return dataclasses.replace(result, flags=(*result.flags, *extra)) if extra else result
+
+
+def _n_free(prepared, fixed) -> int:
+    """Parameters of the half-space fit: E, nu, and the contact point where it is fitted."""
+    return sum(k not in fixed for k in ("E_kPa", "nu")) + int(prepared.contact_mode == "fit"
+                                                               and "offset_mm" not in fixed)
+
+
+def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm, x0, tol, noise_mN, context,
+                    mesh) -> CurveFit:
+    """The paper's path of :func:`fit` at the values held in ``fixed`` (nu < 0.5), without the scale flags."""
     if isinstance(data, PreparedCurve):
         prepared = data
     else:
         prepared = prepare(data, window=window, contact=contact, contact_mm=fixed.get("offset_mm"),
                            radius_mm=radius_mm)
     radius = prepared.radius_mm
+    check_points(prepared, _n_free(prepared, fixed))
     if surface is None:
         depth = prepared.max_indentation_mm
         if prepared.contact_mode == "fit":  # room for the contact point to move earlier than its first guess
@@ -404,8 +486,10 @@ def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> C
     standard deviation and nu replaced, and a note giving the size of the extrapolation.
     Checked against Hertz at small depth and against nu = 0.499 in ``tests/test_api.py``.
     """
-    fixed = dict(kwargs.pop("fixed"))
-    fits = {nu: fit(data, surface, method, fixed={**fixed, "nu": nu}, **kwargs) for nu in LIMIT_NU}
+    fixed = dict(kwargs.pop("fixed", None) or {})
+    kwargs = {"window": None, "contact": "auto", "radius_mm": None, "x0": None, "tol": None, "noise_mN": None,
+              "context": None, "mesh": "medium", **kwargs}
+    fits = {nu: _fit_half_space(data, surface, method, fixed={**fixed, "nu": nu}, **kwargs) for nu in LIMIT_NU}
     lo, hi = LIMIT_NU
     e_lo, e_hi = fits[lo].e_star_kPa, fits[hi].e_star_kPa
     e_star = e_hi + (e_hi - e_lo) * (0.5 - hi) / (hi - lo)
@@ -417,5 +501,5 @@ def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> C
     note = (f"nu = 0.5: the incompressible limit, E* extrapolated from nu = {lo:g} ({e_lo:.5g} kPa) and {hi:g} "
             f"({e_hi:.5g} kPa) to {e_star:.5g} kPa ({100 * (e_star / e_hi - 1):+.2g}% from nu = {hi:g})")
     notes = [n for n in near.notes if not n.startswith("nu fixed")] + [note]
-    return dataclasses.replace(near, parameters=parameters, std=std, e_star_kPa=e_star,
-                               e_star_std_kPa=near.e_star_std_kPa * e_star / e_hi, notes=notes)
+    return with_scale_flags(dataclasses.replace(near, parameters=parameters, std=std, e_star_kPa=e_star,
+                                                e_star_std_kPa=near.e_star_std_kPa * e_star / e_hi, notes=notes))

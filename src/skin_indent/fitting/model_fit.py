@@ -21,9 +21,10 @@ import numpy as np
 from ..effects import CONTACT_POINT, WEIGHED, effect, instances
 from ..inverse import IdentificationResult
 from ..measurement import SEGMENTS, PreparedCurve, prepare
-from .curve import MISFIT_FLAG, CurveFit, quality
+from .curve import MISFIT_FLAG, CurveFit, quality, with_scale_flags
 from .identification import hertz_modulus, run_method
 from .multistart import Fitter, evidence
+from .scale_checks import check_points
 from ..models import HertzModel
 from ..models.composed import at_physical_limit
 from ..runtime.context import context_of
@@ -148,7 +149,9 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     sigma, source = curve_noise(prepared, noise_mN)
     fitter = Fitter(prepared, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
-    fitter.check_names(fitter.model(effects))
+    target = fitter.model(effects)
+    fitter.check_names(target)
+    check_points(prepared, len(target.parameter_names) - len(fitter.held(target)))
     for i in range(len(effects)):  # the rungs below, as a diagnosis climbs to it: the same warm starts
         try:
             fitter.fit(effects[:i])
@@ -160,7 +163,8 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
 
 def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     """The :class:`CurveFit` of a fitted rung: the numbers the ladder shows, with the data
-    treatment, Hertz's fit of the same loading points, the quality and the flags."""
+    treatment, Hertz's fit of the same loading points, the quality and the flags (with the scale
+    checks', :func:`~skin_indent.fitting.scale_checks.scale_flags`)."""
     prepared = fitter.data
     n, k = prepared.n, rung.n_free
     p = rung.parameters
@@ -194,11 +198,12 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     aic, bic = evidence(rung.chi2_weighted, k, n)
     base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
     base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
-    return CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
-                    contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
-                    e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
-                    flags=tuple(flags), notes=notes, surface={}, model=rung.model, priors=dict(rung.priors),
-                    error_model=fitter.error_model())
+    result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
+                      contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
+                      e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
+                      flags=tuple(flags), notes=notes, surface={}, model=rung.model, priors=dict(rung.priors),
+                      error_model=fitter.error_model())
+    return with_scale_flags(result, at_bounds=tuple(rung.at_bounds))
 
 
 _BY = {"data": "determined by the data", "prior": "determined by the prior", "both": "data and prior both count",

@@ -220,35 +220,61 @@ class IdentificationResult:
         json.dumps(out)  # guarantee
         return out
 
-    def report(self, digits: int = 5) -> str:
-        """Readable multi-line summary, in the spirit of lmfit's ``fit_report``."""
+    def report(self, digits: int = 5, units=None) -> str:
+        """Readable multi-line summary, in the spirit of lmfit's ``fit_report``.
+
+        ``units``: a :class:`~skin_indent.measurement.scale.DisplayUnits` to show forces and the
+        parameters with a unit suffix in (``E_kPa`` as ``E_Pa``...); default the package units.
+        """
+        u = units or _PACKAGE_UNITS
         lines = [
             f"[[Identification: {self.method}]]",
             f"    status     = {self.status} ({self.message})",
             f"    iterations = {self.iterations}" + (" sweeps" if self.method.startswith("ekf") else ""),
             f"    points     = {self.n_points}, free parameters = {self.n_free}",
-            f"    rms        = {self.rms_mN:.{digits}g} mN, noise sigma = {self.noise_mN:.{digits}g} mN",
+            f"    rms        = {self.rms_mN * u.per_mN:.{digits}g} {u.force}, noise sigma = "
+            f"{self.noise_mN * u.per_mN:.{digits}g} {u.force}",
             f"    chi-square = {self.chi2:.{digits}g}, reduced = {self.redchi:.{digits}g}",
             f"    AIC        = {self.aic:.{digits}g}, BIC = {self.bic:.{digits}g}",
             f"[[Parameters]]  (std from {self.covariance_source})",
         ]
-        width = max(len(n) for n in self.parameters)
+        width = max(len(u.name(n)) for n in self.parameters)
         for name, value in self.parameters.items():
+            k, shown = u.factor(name), u.name(name)
+            value = value * k
             if name in self.std:
-                sd = self.std[name]
+                sd = self.std[name] * k
                 rel = f" ({100 * sd / abs(value):.3g}%)" if value != 0 and math.isfinite(sd) else ""
-                lines.append(f"    {name:<{width}} = {value:.{digits}g} +/- {sd:.3g}{rel}")
+                lines.append(f"    {shown:<{width}} = {value:.{digits}g} +/- {sd:.3g}{rel}")
             else:
-                lines.append(f"    {name:<{width}} = {value:.{digits}g} (fixed)")
+                lines.append(f"    {shown:<{width}} = {value:.{digits}g} (fixed)")
         if self.n_free > 1:
             lines.append("[[Correlations]]")
             for i in range(self.n_free):
                 for j in range(i + 1, self.n_free):
-                    lines.append(f"    C({self.free_names[i]}, {self.free_names[j]}) = {self.correlation[i, j]:+.4f}")
+                    lines.append(f"    C({u.name(self.free_names[i])}, {u.name(self.free_names[j])}) = "
+                                 f"{self.correlation[i, j]:+.4f}")
         return "\n".join(lines)
 
     def __str__(self) -> str:
         return self.report()
+
+
+class _PackageUnits:
+    """The package units (mm, mN, kPa) as :meth:`IdentificationResult.report` asks for units."""
+
+    force, per_mN = "mN", 1.0
+
+    @staticmethod
+    def name(name: str) -> str:
+        return name
+
+    @staticmethod
+    def factor(name: str) -> float:
+        return 1.0
+
+
+_PACKAGE_UNITS = _PackageUnits()
 
 
 def build_result(problem, x: np.ndarray, *, method: str, iterations: int, status: int, message: str,

@@ -15,8 +15,10 @@ recorded it into the points a model is compared with (:class:`PreparedCurve`):
 4. **window** of indentation depths past the contact point, and **binning** of long
    curves within segments;
 5. **scale checks** before any finite-element work: an indentation deeper than the
-   sphere's radius (depth in um labelled mm?), nN forces with the skin default radius,
-   a depth that is a vanishing fraction of the radius (radius in um typed as mm?).
+   sphere's radius (depth in um labelled mm? a radius in mm given in um?), nN forces with
+   the skin default radius. A depth that is a vanishing fraction of the radius (radius in
+   um typed as mm?) and the checks that need a fit (a modulus no tissue has, too few points,
+   undetermined parameters) are flags of the fit: :mod:`skin_indent.fitting.scale_checks`.
 """
 
 from __future__ import annotations
@@ -40,7 +42,8 @@ CONTACT_MODES = ("auto", "fit", "origin")
 SKIN_RADIUS_MM = 6.22
 #: deepest indentation over radius the package handles (h/R; the surfaces reach 0.5 by similarity)
 MAX_DEPTH_RATIO = 1.0
-#: shallowest h/R that looks like a real indentation (smaller: a radius in the wrong unit)
+#: shallowest h/R that looks like a real indentation (smaller: a radius in the wrong unit; a flag of the
+#: fit, see :mod:`skin_indent.fitting.scale_checks`)
 MIN_DEPTH_RATIO = 1e-3
 
 
@@ -321,14 +324,13 @@ def _check_scale(m: Measurement, depth, force, c0, radius, radius_source) -> lis
         raise MeasurementError(
             f"{m.source}: forces of {peak:.3g} mN (nN to uN) and {1e3 * h:.3g} um of indentation with the skin "
             f"default radius {SKIN_RADIUS_MM:g} mm: give the sphere radius in mm (--radius, e.g. 0.0275 for 27.5 um)")
-    if ratio > MAX_DEPTH_RATIO:
+    if ratio > MAX_DEPTH_RATIO:  # the contact radius a = sqrt(R h) would exceed the sphere's
         hint = f"is depth in um (column {unit!r})?" if ratio / 1e3 <= MAX_DEPTH_RATIO else "is the depth in mm?"
+        wrong = "is the radius a value in mm labelled um (R 1000 x too small)?" if ratio / 1e3 <= 0.5 else \
+            "is the radius wrong?"
         raise MeasurementError(f"{m.source}: h/R = {ratio:.3g} (indentation {h:.4g} mm, sphere R = {radius:g} mm, "
-                               f"{where}): {hint} or is the radius wrong?")
+                               f"{where}): deeper than the sphere's radius; {hint} or {wrong}")
     notes = []
-    if ratio < MIN_DEPTH_RATIO:
-        hint = " (a radius in um typed as mm?)" if ratio * 1e3 <= 0.5 else ""
-        notes.append(f"h/R = {ratio:.2g}: the indentation is a tiny fraction of the radius R = {radius:g} mm{hint}")
     if radius_source == "default":
         notes.append(f"sphere radius not given: the skin default R = {SKIN_RADIUS_MM:g} mm is used")
     return notes

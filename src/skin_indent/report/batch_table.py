@@ -1,8 +1,11 @@
-"""The outputs of a batch of fits: a table with its provenance, and a summary figure.
+"""The outputs of a batch of fits: a table with its provenance, a line of text per curve, and a summary figure.
 
 :func:`write_tsv` writes one line per curve of :func:`skin_indent.batch.fit_many` after
-``#`` provenance lines; :func:`summary_figure` draws E per curve and, for force maps, E
-over the map positions.
+``#`` provenance lines, in the package units whatever the curve's scale (the units are in the
+column names: ``E_kPa``, ``contact_point_mm``, ``noise_mN``); :func:`row_line` is the line
+``skin-indent fit`` prints per curve, in the units of the curve's scale (Pa, um and nN for
+AFM-scale curves, :func:`skin_indent.measurement.scale.display_units`); :func:`summary_figure`
+draws E per curve and, for force maps, E over the map positions.
 """
 
 from __future__ import annotations
@@ -12,10 +15,38 @@ from pathlib import Path
 
 import numpy as np
 from ..fitting import MISFIT_LIMIT
+from ..measurement.scale import display_units
 from ..runtime.atomic import atomic_write
 from ..runtime.provenance import provenance_comment_lines
 
-__all__ = ["summary_figure", "write_tsv"]
+__all__ = ["UNITS_LINE", "row_line", "summary_figure", "write_tsv"]
+
+#: the comment line before a table's header: its units, the same for every row
+UNITS_LINE = ("# units: as in the column names (mm, mN, kPa, s) for every row whatever its scale; for AFM-scale "
+              "curves E_kPa x 1000 = Pa, *_mm x 1000 = um, *_mN x 1e6 = nN")
+
+
+def row_line(row) -> str:
+    """One line of text of a batch row, in the units of its scale.
+
+    Parameters
+    ----------
+    row : BatchRow
+
+    Returns
+    -------
+    str
+        ``label: E = ... kPa, E* = ..., nu = ..., contact ... mm, misfit ... x noise: verdict [flags]``
+        (``Pa`` and ``um`` for an AFM-scale sphere), or ``label: error: ...``.
+    """
+    if row.error:
+        return f"{row.label}: error: {row.error}"
+    u = display_units(row.radius_mm)
+    extra = "".join(f", {u.name(k)} = {v * u.factor(k):.4g}" for k, v in row.parameters.items()
+                    if k not in ("E_kPa", "nu", "offset_mm"))
+    return (f"{row.label}: E = {row.E_kPa * u.per_kPa:.5g} {u.modulus}, E* = {row.E_star_kPa * u.per_kPa:.5g} "
+            f"{u.modulus}, nu = {row.nu:.3g}{extra}, contact {row.contact_point_mm * u.per_mm:.6g} {u.length}, "
+            f"misfit {row.misfit:.2g} x noise: {row.verdict}" + (f" [{'; '.join(row.flags)}]" if row.flags else ""))
 
 
 def _cell(value) -> str:
@@ -61,14 +92,16 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
     -----
     Columns :data:`skin_indent.batch.TSV_COLUMNS`, then ``NAME`` and ``NAME_sd`` for each parameter of
     the fitted models beyond E_kPa, nu and the contact point (``thickness_mm``, ``ratio``...): units in
-    the names (mm, mN, kPa); empty cells for
+    the names (mm, mN, kPa), the same for every row whatever its scale, as in JSON (an AFM-scale curve's
+    E_kPa x 1000 is in Pa, its lengths x 1000 in um; the ``# units:`` line before the header says so,
+    and the text of ``skin-indent fit`` shows them in Pa, um and nN: :func:`row_line`); empty cells for
     missing values, ``nan`` for numbers not computed; ``flags`` joined by ``" | "``.
     ``#`` lines come first (:func:`skin_indent.runtime.provenance.provenance_comment_lines`;
     read them back with :func:`skin_indent.runtime.provenance.read_provenance`), so
     ``pandas.read_csv(path, sep="\\t", comment="#")`` reads the table.
     """
     prov = provenance if provenance is not None else getattr(rows, "provenance", None)
-    lines = provenance_comment_lines(prov) if prov else []
+    lines = (provenance_comment_lines(prov) if prov else []) + [UNITS_LINE]
     extra = list(dict.fromkeys(k for r in rows for k in getattr(r, "parameters", {}) if k not in ("E_kPa", "nu", "offset_mm")))
     columns = rows.columns if hasattr(rows, "columns") else _columns(rows)
     lines.append("\t".join([*columns, *(c for k in extra for c in (k, f"{k}_sd"))]))

@@ -22,13 +22,11 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+from ..measurement.scale import display_units
 from ..runtime.atomic import atomic_write
 from ..runtime.provenance import provenance_comment_lines
 
 __all__ = ["fit_arrays", "plot_fit", "write_fit_csv"]
-
-_DEPTH_UNITS = (("mm", 1.0), ("um", 1e3), ("nm", 1e6))
-_FORCE_UNITS = (("mN", 1.0), ("uN", 1e3), ("nN", 1e6), ("pN", 1e9))
 
 
 def fit_arrays(curve_fit) -> dict:
@@ -64,15 +62,6 @@ def fit_arrays(curve_fit) -> dict:
             "indentation_mm": depth - curve_fit.contact_point_mm}
 
 
-def _unit(values, units):
-    """The unit (name, factor) that puts the largest |value| between 1 and 1000."""
-    peak = float(np.nanmax(np.abs(values))) if np.size(values) else 1.0
-    for name, factor in units:
-        if peak * factor >= 1.0:
-            return name, factor
-    return units[-1]
-
-
 def _hertz_mN(curve_fit, depth_mm) -> np.ndarray | None:
     h = curve_fit.hertz or {}
     e_star, c = h.get("E_star_kPa"), h.get("contact_point_mm", curve_fit.contact_point_mm)
@@ -88,8 +77,10 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Pa
     Top: the approach as recorded (baseline removed, light), the fitted points, the
     model at them, Hertz's fit of the same points (dashed), the contact point (vertical
     line) and the fitted depth range (shaded). Bottom: the residual with +-2 noise
-    levels (the noise independent of the model, ``curve_fit.quality``). Depth and
-    force are shown in the unit that suits their size (mm, um or nm; mN, uN, nN, pN).
+    levels (the noise independent of the model, ``curve_fit.quality``). Depth, force and
+    moduli are shown in the units of the curve's scale, as the text of the fit
+    (:func:`skin_indent.measurement.scale.display_units`: um, nN and Pa for an AFM-scale
+    sphere, mm, mN and kPa for skin).
 
     Parameters
     ----------
@@ -115,8 +106,8 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Pa
     raw_f = np.asarray(approach.force_mN, float)
     if p.baseline is not None:
         raw_f = raw_f - p.baseline.force_at(raw_d)
-    dname, dk = _unit(np.r_[raw_d, a["depth_mm"]], _DEPTH_UNITS)
-    fname, fk = _unit(a["force_mN"], _FORCE_UNITS)
+    u = display_units(curve_fit.radius_mm)
+    dname, dk, fname, fk = u.length, u.per_mm, u.force, u.per_mN
 
     fig = Figure(figsize=(7.0, 6.0), layout="constrained")
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1.4))
@@ -129,17 +120,19 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Pa
     top.plot(a["depth_mm"] * dk, a["force_mN"] * fk, ".", ms=2.5, color="k", label="fitted points")
     name = "neo-Hooke" if curve_fit.model == "neo-hooke" else curve_fit.model
     top.plot(a["depth_mm"] * dk, a["model_mN"] * fk, "-", color="C0", lw=1.8,
-             label=f"{name}: E = {curve_fit.parameters['E_kPa']:.4g} kPa, nu = {curve_fit.parameters['nu']:.3g}")
+             label=f"{name}: E = {curve_fit.parameters['E_kPa'] * u.per_kPa:.4g} {u.modulus}, "
+                   f"nu = {curve_fit.parameters['nu']:.3g}")
     hertz = _hertz_mN(curve_fit, a["depth_mm"])
     if hertz is not None:
         top.plot(a["depth_mm"] * dk, hertz * fk, "--", color="C2", lw=1,
-                 label=f"Hertz: E* = {curve_fit.hertz['E_star_kPa']:.4g} kPa")
+                 label=f"Hertz: E* = {curve_fit.hertz['E_star_kPa'] * u.per_kPa:.4g} {u.modulus}")
     top.plot([], [], color="C3", ls=":", label=f"contact point {curve_fit.contact_point_mm * dk:.5g} {dname}")
     top.set_ylabel(f"force ({fname})")
     top.legend(fontsize=8, loc="upper left")
     q = curve_fit.quality or {}
     if title is None:
-        title = "\n".join(textwrap.wrap(f"{p.source} (R = {curve_fit.radius_mm:g} mm): {q.get('verdict', '')}", 90))
+        title = "\n".join(textwrap.wrap(f"{p.source} (R = {curve_fit.radius_mm * dk:g} {dname}): "
+                                        f"{q.get('verdict', '')}", 90))
     top.set_title(title, fontsize=9)
     bottom.plot(a["depth_mm"] * dk, a["residual_mN"] * fk, ".", ms=2.5, color="k")
     bottom.axhline(0.0, color="C0", lw=1)

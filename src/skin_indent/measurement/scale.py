@@ -1,0 +1,107 @@
+"""The scale of a curve (an AFM or cell-scale sphere, or a skin-scale one) and the units its results are read in.
+
+One rule, :func:`afm_scale`, decides; everything that depends on the scale asks it:
+
+- the text of a fit, the lines of a batch and the plots of a fit show lengths, forces and
+  moduli in the units of the scale (:func:`display_units`: um, nN and Pa for AFM-scale
+  curves, mm, mN and kPa for skin);
+- the default of Poisson's ratio of :func:`skin_indent.fitting.fit`: held at 0.5 (the
+  incompressible limit, the AFM field's convention) at AFM scale, fitted at skin scale as
+  in Delalleau et al. (2006).
+
+JSON, TSV and CSV outputs keep the package units whatever the scale (mm, mN, kPa, in the
+names: ``E_kPa``, ``contact_point_mm``, ``noise_mN``), so tables of mixed folders stay one
+table and read back the same way.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["AFM_RADIUS_MM", "AFM_UNITS", "SKIN_UNITS", "DisplayUnits", "afm_scale", "display_units",
+           "format_modulus"]
+
+#: spheres smaller than this radius (mm) are AFM or cell-scale probes: colloidal AFM probes and
+#: nanoindenter tips are 1-250 um in radius (Chiaro 3-250 um), skin and tissue indenters use
+#: spheres of 1 mm and more (6.22 mm in Delalleau et al. 2006)
+AFM_RADIUS_MM = 0.5
+
+
+def afm_scale(radius_mm: float) -> bool:
+    """True for a sphere of AFM or cell scale, radius below :data:`AFM_RADIUS_MM` (0.5 mm).
+
+    The radius alone decides: it is known before any fit (given, from the file, or the
+    skin default), and a force in the wrong unit does not move a curve from one field's
+    conventions to the other's (the scale checks of the fit say so instead).
+
+    Parameters
+    ----------
+    radius_mm : float
+        Sphere radius (mm).
+    """
+    return bool(math.isfinite(radius_mm) and 0 < radius_mm < AFM_RADIUS_MM)
+
+
+@dataclass(frozen=True)
+class DisplayUnits:
+    """The units results of one scale are shown in, and the factors from the package units.
+
+    Attributes
+    ----------
+    length, force, modulus : str
+        Unit names (``"um"``, ``"nN"``, ``"Pa"``; or ``"mm"``, ``"mN"``, ``"kPa"``).
+    per_mm, per_mN, per_kPa : float
+        Factors from mm, mN and kPa to those units.
+    """
+
+    length: str
+    force: str
+    modulus: str
+    per_mm: float
+    per_mN: float
+    per_kPa: float
+
+    @property
+    def is_package(self) -> bool:
+        """True when these are the package units (mm, mN, kPa): nothing to convert."""
+        return self.per_mm == self.per_mN == self.per_kPa == 1.0
+
+    def name(self, name: str) -> str:
+        """A parameter's name with its unit suffix in these units: ``E_kPa`` -> ``E_Pa``,
+        ``offset_mm`` -> ``offset_um``; a name without a unit suffix as it is."""
+        for suffix, unit in (("_kPa", self.modulus), ("_mm", self.length), ("_mN", self.force)):
+            if name.endswith(suffix):
+                return name[: -len(suffix)] + "_" + unit
+        return name
+
+    def factor(self, name: str) -> float:
+        """The factor from a parameter's package unit (by its suffix) to these units."""
+        for suffix, k in (("_kPa", self.per_kPa), ("_mm", self.per_mm), ("_mN", self.per_mN)):
+            if name.endswith(suffix):
+                return k
+        return 1.0
+
+
+SKIN_UNITS = DisplayUnits("mm", "mN", "kPa", 1.0, 1.0, 1.0)
+AFM_UNITS = DisplayUnits("um", "nN", "Pa", 1e3, 1e6, 1e3)
+
+
+def display_units(radius_mm: float) -> DisplayUnits:
+    """:data:`AFM_UNITS` (um, nN, Pa) for an AFM-scale sphere (:func:`afm_scale`), else the
+    package units :data:`SKIN_UNITS` (mm, mN, kPa).
+
+    Parameters
+    ----------
+    radius_mm : float
+        Sphere radius (mm).
+    """
+    return AFM_UNITS if afm_scale(radius_mm) else SKIN_UNITS
+
+
+def format_modulus(E_kPa: float) -> str:
+    """A modulus in the unit that suits its size: ``0.0046`` -> ``"4.6 Pa"``, ``2e5`` -> ``"200 MPa"``."""
+    for unit, k, floor in (("MPa", 1e-3, 1e3), ("kPa", 1.0, 1.0), ("Pa", 1e3, 0.0)):
+        if abs(E_kPa) >= floor:
+            return f"{E_kPa * k:.3g} {unit}"
+    return f"{E_kPa * 1e3:.3g} Pa"
