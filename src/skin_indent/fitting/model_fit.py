@@ -134,7 +134,14 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     CurveFit
         ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
         model error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
-        ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.multistart.evidence`).
+        ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.multistart.evidence`);
+        ``flags`` with the scale checks' (:func:`~skin_indent.fitting.scale_checks.scale_flags`).
+
+    Raises
+    ------
+    MeasurementError
+        Fewer points in contact than the model's free parameters need
+        (:func:`~skin_indent.fitting.scale_checks.check_points`).
 
     Examples
     --------

@@ -46,7 +46,7 @@ from ..measurement import MeasurementError
 from ..measurement.preparation import MIN_DEPTH_RATIO
 from ..measurement.scale import format_modulus
 
-__all__ = ["MIN_DEPTH_RATIO", "MODULUS_RANGE_KPA", "POINTS_PER_PARAMETER", "check_points", "contact_points",
+__all__ = ["MODULUS_RANGE_KPA", "POINTS_PER_PARAMETER", "check_points", "contact_points",
            "min_points", "scale_flags", "soft_min_points"]
 
 #: Young's moduli (kPa) a soft tissue or gel can have: 10 Pa to 100 MPa (see the module docstring)
