@@ -308,3 +308,37 @@ def test_file_lock_excludes_another_lock_of_the_same_file(tmp_path):
     other = FileLock(str(path))
     other.acquire(timeout=0)  # released at the end of the block
     other.release()
+
+
+def test_two_effect_surface_builders_at_once_compute_each_run_once(tmp_path, monkeypatch):
+    """The diagnosis's surfaces (one sub-surface per node of the effect's axes) share runs the same way."""
+    from skin_indent.models import effect_surface
+    from skin_indent.response_surface import SurfaceGrid
+
+    counter = Counter(barrier=threading.Barrier(2))
+    calls = []
+
+    def fake(nu, depth_mm, *, effects, parameters, radius_mm, mesh):
+        calls.append((float(nu), parameters))
+        return counter(nu, depth_mm, radius_mm)
+
+    monkeypatch.setattr(effect_surface, "model_unit_curve", fake)
+    grid = SurfaceGrid(np.linspace(0.02, 0.2, 5), [1.0, 10.0], [0.3, 0.45])
+    axes = effect_surface.default_axes("layer", 0.2)
+    out, errors = [], []
+
+    def build():
+        try:
+            out.append(effect_surface.EffectSurface.build(("layer",), axes, grid, radius_mm=1.0, mesh="coarse",
+                                                          cache_dir=tmp_path, workers=1, progress=False))
+        except BaseException as err:  # noqa: BLE001 - reported below
+            errors.append(err)
+
+    threads = [threading.Thread(target=build) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=120)
+    assert not errors and len(out) == 2
+    n_nodes = int(np.prod([len(a.nodes) for a in axes]))
+    assert len(calls) == len(set(calls)) == n_nodes * grid.nu.size

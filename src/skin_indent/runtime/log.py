@@ -29,8 +29,7 @@ import logging
 import sys
 import warnings
 
-ROOT = "skin_indent"
-logging.getLogger(ROOT).addHandler(logging.NullHandler())
+ROOT = "skin_indent"  # its NullHandler is added by the package's __init__
 
 #: verbosity of the command line -> level of the ``skin_indent`` logger
 LEVELS = {-1: logging.WARNING, 0: logging.INFO, 1: logging.DEBUG}
@@ -77,6 +76,9 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 def cli_logging(prog: str, verbosity: int = 0):
     """Show the package's log records on stderr for the ``with`` block (the command line's setting).
 
+    Everything is restored afterwards (handler, level, :func:`warnings.showwarning`), so
+    that calling the CLI's ``main`` twice in one process does not print lines twice.
+
     Parameters
     ----------
     prog : str
@@ -86,8 +88,10 @@ def cli_logging(prog: str, verbosity: int = 0):
         phases; 1 (``-v``): also DEBUG details. Python warnings are shown at every
         verbosity, as one line each (``skin-indent fit: warning: ...``).
 
-    Everything is restored afterwards (handler, level, :func:`warnings.showwarning`), so
-    that calling the CLI's ``main`` twice in one process does not print lines twice.
+    Yields
+    ------
+    logging.Logger
+        The ``skin_indent`` logger.
     """
     logger = logging.getLogger(ROOT)
     handler = _StderrHandler(prog)
