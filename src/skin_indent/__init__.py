@@ -29,6 +29,12 @@ Where things live
 
 __version__ = "0.1.0"
 
+import logging as _logging
+
+# a library logs, the program decides what is shown (skin_indent.runtime.log; the CLI's -v/-q)
+_logging.getLogger(__name__).addHandler(_logging.NullHandler())
+del _logging
+
 # The main nouns, importable from the top level; loaded on first use so that
 # ``import skin_indent`` (and the CLI's start) stays fast. No submodule shares a
 # name with these (a submodule, once imported, would shadow a lazy name).

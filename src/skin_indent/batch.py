@@ -24,6 +24,7 @@ use, and at most three unit surfaces per mesh are built for any number of radii.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 from dataclasses import dataclass, field, fields
@@ -42,10 +43,13 @@ from .report.fit_figure import plot_fit, write_fit_csv
 from .runtime.context import Context, context_of
 from .runtime.executors import make_executor
 from .runtime.json_io import jsonable
+from .runtime.log import progress_bar
 from .runtime.provenance import provenance as make_provenance
 
 __all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expand_paths", "fit_many",
            "summary_figure", "write_tsv"]
+
+log = logging.getLogger(__name__)
 
 #: file suffixes a folder is searched for (CSV and Chiaro text without optional packages;
 #: the others need afmformats, and give a row with the install command without it)
@@ -327,7 +331,7 @@ def _plot_name(row: BatchRow) -> str:
 # ------------------------------------------------------------------ fit_many
 def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None, window=None,
              contact: str = "auto", fixed: dict | None = None, method: str = "lsq", mesh: str | None = None,
-             context=None, progress: bool = True, surface=None, tol: float | None = None, x0=None,
+             context=None, progress: bool | None = None, surface=None, tol: float | None = None, x0=None,
              keep_fits: bool = False, plot_dir=None, command=None, model=None, priors=None, free=(),
              recursive: bool = False) -> BatchResult:
     """Fit every curve of every file, in parallel; one :class:`BatchRow` per curve.
@@ -364,8 +368,9 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         Surface cache, and where the fits run: ``workers`` local processes (default: the
         available cores, at most one per curve; 1 runs here), or the Dask ``client`` or
         ``scheduler``.
-    progress : bool
-        Show a progress bar of the fits (tqdm, on stderr; none for a single curve).
+    progress : bool or None
+        Show a progress bar of the fits (tqdm, on stderr; none for a single curve); default
+        None: only when stderr is a terminal (:func:`skin_indent.runtime.log.progress_bar`).
     surface : ResponseSurface, optional
         One neo-Hookean surface for every curve (rescaled to each radius by
         similarity); default: found in the cache or built, once per group of curves
@@ -439,6 +444,8 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
     mesh = "medium" if mesh is None else mesh
     # the surfaces, once each, here
     pending = [i for i, r in enumerate(rows) if isinstance(r, tuple)]
+    log.info("%d curve%s read from %d file%s (%d could not be read or prepared)", len(rows),
+             "s" if len(rows) != 1 else "", len(files), "s" if len(files) != 1 else "", len(rows) - len(pending))
     groups: dict = {}
     for i in pending:
         p = rows[i][1]
@@ -479,10 +486,10 @@ def _run(tasks, rows, ctx, *, progress, keep_fits, plot_dir, prov, surface_of=No
     """The fits of ``tasks`` on the context's executor, each result (or error) put in its row."""
     if not tasks:
         return
-    from tqdm.auto import tqdm
-
     executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
-    bar = tqdm(total=len(tasks), desc="fitting", unit="curve", disable=not progress or len(tasks) < 2)
+    log.info("fitting %d curve%s on %s%s", len(tasks), "s" if len(tasks) != 1 else "", executor.name,
+             "" if model is None else f" (model {model})")
+    bar = progress_bar(progress if len(tasks) >= 2 else False, total=len(tasks), desc="fitting", unit="curve")
     try:
         for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
             base, prepared = rows[i]

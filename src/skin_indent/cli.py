@@ -2,7 +2,10 @@
 
 A thin front end over the Python API. Every error a user can cause (bad numbers,
 bad files, a model that does not converge) ends in a one-line message on stderr
-and exit status 2, never a traceback.
+and exit status 2, never a traceback; the exit statuses of every command are
+:data:`EXIT_STATUS`. Messages of long phases go to stderr through the ``skin_indent``
+logger (:mod:`skin_indent.runtime.log`; ``-v``/``-q`` on every command), progress bars
+only to a terminal unless ``--progress`` asks for them.
 """
 
 from __future__ import annotations
@@ -14,6 +17,18 @@ from pathlib import Path
 import numpy as np
 
 MATERIALS = ("neo-hooke", "linear-elastic", "neo-hooke-stiffening")
+
+#: the exit statuses of every command
+EXIT_OK, EXIT_USER_ERROR, EXIT_FLAGGED, EXIT_INTERRUPTED = 0, 2, 3, 130
+#: the epilog of every command's --help: messages and exit statuses, said once
+EXIT_STATUS = ("Messages: the phases of long work (surface builds, batches, the rungs of a diagnosis) as one line "
+               "each on stderr; -v adds details, -q keeps only warnings and errors (a clean run with -q leaves "
+               "stderr empty). Progress bars only when stderr is a terminal (--progress, --no-progress). "
+               "Results go to stdout. "
+               "Exit status: 0 done; 2 a user error (a bad option or value, a missing or malformed file, a "
+               "model that does not converge), one line on stderr; 3 a curve failed or was flagged as not to be "
+               "trusted (fit: with --strict, the default for several curves; a single fit that fails always) or a "
+               "finite-element run of a surface build failed; 130 interrupted (Ctrl-C).")
 
 
 class CLIError(Exception):
@@ -135,27 +150,63 @@ def _run_simulate(args) -> int:
 def _add_surface(sub):
     p = sub.add_parser("surface", help="response surfaces F(h; E, nu)")
     ssub = p.add_subparsers(dest="surface_command", metavar="SURFACE_COMMAND")
-    b = ssub.add_parser("build", help="build (or complete) a response surface",
-                        description="Build a neo-Hookean response surface, one finite-element run per nu value "
-                                    "(F is exactly proportional to E). Without --out it goes to the per-user cache "
-                                    "(SKIN_INDENT_CACHE or ~/.cache/skin_indent) where `fit` finds it.")
-    b.add_argument("--E", default="1:100:8:log", help="E grid MIN:MAX:N[:log], kPa (default 1:100:8:log)")
-    b.add_argument("--nu", default="0.2:0.49:6", help="nu grid MIN:MAX:N (default 0.2:0.49:6)")
-    b.add_argument("--depth", type=float, default=0.6, help="largest depth, mm (default 0.6)")
-    b.add_argument("--points", type=int, default=100, help="number of depths (default 100)")
-    b.add_argument("--radius", type=float, default=6.22, help="sphere radius, mm (default 6.22)")
+    b = ssub.add_parser("build", help="build (or complete) the response surfaces that fit uses",
+                        description="Build (or complete) neo-Hookean response surfaces F(h; E, nu) in the per-user "
+                                    "cache (SKIN_INDENT_CACHE or ~/.cache/skin_indent), where `fit` finds them. "
+                                    "With DATA: the surface `fit` uses for each curve of these files (same radius, "
+                                    "depth and --mesh as `fit DATA --mesh ...`). Without: the one `fit` uses for a "
+                                    "curve to --depth with a sphere of --radius (the unit-radius surface that "
+                                    "serves every radius by similarity). --E, --nu, --points or --out build an "
+                                    "explicit grid at --radius instead. `fit --model` and `diagnose` build their "
+                                    "own surfaces (grids fitted to each curve). Several builds at once share the "
+                                    "finite-element runs through the cache: each run is computed once.")
+    b.add_argument("data", type=Path, nargs="*", metavar="DATA",
+                   help="measurement files or folders whose curves `fit` will fit (default: none, see above)")
+    b.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="medium",
+                   help="mesh of the finite-element runs (default medium, as `fit`)")
+    b.add_argument("--E", default=None, help="explicit E grid MIN:MAX:N[:log], kPa (default of an explicit grid "
+                                             "1:100:8:log)")
+    b.add_argument("--nu", default=None, help="explicit nu grid MIN:MAX:N (default of an explicit grid 0.2:0.49:6)")
+    b.add_argument("--depth", type=float, default=0.6, help="largest depth without DATA, mm (default 0.6)")
+    b.add_argument("--points", type=int, default=None, help="number of depths of an explicit grid (default 100)")
+    b.add_argument("--radius", type=float, default=None,
+                   help="sphere radius, mm (default: each file's, else the skin sphere 6.22)")
     b.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     b.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="run the finite-element runs on this Dask scheduler (pip install 'skin_indent[dask]'); "
                         "results are cached on this machine")
-    b.add_argument("--out", type=Path, default=None, help="surface file (.npz); default the cache")
+    b.add_argument("--out", type=Path, default=None, help="surface file (.npz) of an explicit grid; default the cache")
     b.set_defaults(run=_run_surface_build)
     p.set_defaults(run=lambda args: _missing_subcommand(p))
 
 
 def _missing_subcommand(parser) -> int:
     parser.print_help(sys.stderr)
-    return 2
+    return EXIT_USER_ERROR
+
+
+def _surface_requests(args) -> list[tuple[float, float, list[str]]]:
+    """``[(radius_mm, depth_mm, [curve labels])]``: the :func:`~skin_indent.fitting.surface_for` calls
+    that `fit` makes for the curves of ``args.data`` (one per radius and unit-radius surface)."""
+    from .batch import _needed_depth, _surface_key, expand_paths
+    from .measurement import load_curves, prepare
+
+    missing = [str(path) for path in args.data if not path.exists()]
+    if missing:
+        raise CLIError(f"no such file or folder: {', '.join(missing)}")
+    groups: dict = {}
+    for path in expand_paths(args.data):
+        curves = load_curves(path, radius_mm=args.radius)
+        for i, m in enumerate(curves):
+            p = prepare(m)  # as `fit` prepares a curve by default
+            depth = _needed_depth(p)
+            radius, ceiling = _surface_key(p.radius_mm, depth)
+            label = str(path) if len(curves) == 1 else f"{path}[{i}]"
+            # a unit-radius surface serves every depth below its ceiling; deeper: one per depth asked
+            group = groups.setdefault((radius, ceiling if ceiling is not None else depth), [radius, depth, []])
+            group[1] = max(group[1], depth)
+            group[2].append(label)
+    return [tuple(g) for g in groups.values()]
 
 
 def _run_surface_build(args) -> int:
@@ -166,26 +217,47 @@ def _run_surface_build(args) -> int:
     from .runtime.context import Context
     from .fitting import surface_for
 
-    SphericalIndenter(args.radius)  # validates the radius
+    _positive_radius(args.radius)
+    radius = 6.22 if args.radius is None else args.radius
+    SphericalIndenter(radius)  # validates the radius
     if not (args.depth > 0 and np.isfinite(args.depth)):
         raise CLIError(f"depth must be a finite number > 0 mm, got {args.depth}")
-    if args.points < 4:
+    if args.points is not None and args.points < 4:
         raise CLIError(f"points must be an integer >= 4, got {args.points}")
-    grid = SurfaceGrid(depth_mm=args.depth * np.arange(1, args.points + 1) / args.points,
-                       E_kPa=parse_range(args.E), nu=parse_range(args.nu))
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
-    t = time.perf_counter()
-    surface = surface_for(args.radius, args.depth, grid=grid, path=args.out,
-                          context=Context(workers=args.workers, scheduler=args.scheduler, progress=True))
-    where = args.out or "the cache"
-    print(f"surface {surface.hash[:12]}: {len(grid.E_kPa)} E x {len(grid.nu)} nu x {len(grid.depth_mm)} depths, "
-          f"R = {args.radius:g} mm, ready in {time.perf_counter() - t:.1f} s ({where})")
-    if surface.failures:
+    explicit = any(v is not None for v in (args.E, args.nu, args.points, args.out))
+    if explicit and args.data:
+        raise CLIError("DATA builds the surfaces `fit` uses for those curves; --E, --nu, --points and --out "
+                       "describe one explicit grid instead: give one or the other")
+    context = Context(workers=args.workers, scheduler=args.scheduler, progress=_progress(args))
+    if explicit:
+        points = 100 if args.points is None else args.points
+        grid = SurfaceGrid(depth_mm=args.depth * np.arange(1, points + 1) / points,
+                           E_kPa=parse_range(args.E or "1:100:8:log"), nu=parse_range(args.nu or "0.2:0.49:6"))
+        requests = [(radius, args.depth, [f"an explicit grid at R = {radius:g} mm"])]
+    elif args.data:
+        requests = _surface_requests(args)
+        if not requests:
+            raise CLIError(f"no curves found in {', '.join(map(str, args.data))}")
+    else:
+        grid = None
+        requests = [(radius, args.depth, [f"curves to {args.depth:g} mm with R = {radius:g} mm"])]
+    failed = False
+    for r, depth, labels in requests:
+        t = time.perf_counter()
+        surface = surface_for(r, depth, grid=grid if explicit else None, path=args.out, context=context,
+                              mesh=args.mesh)
+        origin = surface.settings.get("similarity")
+        g = surface.grid
+        what = (f"unit-radius surface {origin['hash'][:12]} (h/R to {g.depth_mm[-1] / r:.3g}, for R = {r:g} mm)"
+                if origin else f"surface {surface.hash[:12]} at R = {r:g} mm")
+        print(f"{what}: {len(g.E_kPa)} E x {len(g.nu)} nu x {len(g.depth_mm)} depths, mesh {args.mesh}, "
+              f"ready in {time.perf_counter() - t:.1f} s ({args.out or 'the cache'}); for {', '.join(labels)}")
         for nu, reason in surface.failures.items():
             print(f"  nu = {nu:g} failed: {reason}")
-        return 1
-    return 0
+            failed = True
+    return EXIT_FLAGGED if failed else EXIT_OK
 
 
 def _parse_window(text: str) -> tuple[float, float]:
@@ -375,7 +447,7 @@ def _run_fit(args) -> int:
         if not args.surface.is_file():
             raise CLIError(f"surface file not found: {args.surface}")
         surface = ResponseSurface.load(args.surface)
-    context = Context(workers=args.workers, scheduler=args.scheduler, progress=not args.json)
+    context = Context(workers=args.workers, scheduler=args.scheduler, progress=_progress(args, off=args.json))
     if args.recursive and not any(path.is_dir() for path in args.data):
         raise CLIError("--recursive searches folders: give a folder")
     if len(args.data) == 1 and args.data[0].is_file() and args.out is None:
@@ -449,9 +521,10 @@ def _fit_output(args, path, result, prov) -> int:
             print(f"wrote {args.plot / (path.stem + '.png')} and {args.plot / (path.stem + '.csv')}")
     for flag in result.flags:
         print(f"skin-indent fit: warning: {path}: {flag}", file=sys.stderr)
-    if not result.success:
-        return 1
-    return 3 if (args.strict and result.flags) else 0
+    if not result.success:  # a failed curve (exit 3 as a flagged one), said on stderr
+        print(f"skin-indent fit: warning: {path}: the fit failed", file=sys.stderr)
+        return EXIT_FLAGGED
+    return EXIT_FLAGGED if (args.strict and result.flags) else EXIT_OK
 
 
 def _fit_batch(args, surface, fixed, window, x0, context) -> int:
@@ -462,11 +535,11 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
 
     if args.model is not None or args.priors:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, fixed=fixed, mesh=args.mesh,
-                        context=context, progress=not args.json, plot_dir=args.plot, model=args.model or "neo-hooke",
+                        context=context, progress=context.progress, plot_dir=args.plot, model=args.model or "neo-hooke",
                         priors=args.priors, recursive=args.recursive)
     else:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, window=window, contact=args.contact,
-                        fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=not args.json,
+                        fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=context.progress,
                         surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot, free=args.free,
                         recursive=args.recursive)
     if args.out is not None:
@@ -485,7 +558,7 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
         for flag in r.flags:
             print(f"skin-indent fit: warning: {r.label}: {flag}", file=sys.stderr)
     strict = True if args.strict is None else args.strict
-    return 3 if (strict and not rows.trusted) else 0
+    return EXIT_FLAGGED if (strict and not rows.trusted) else EXIT_OK
 
 
 def _add_diagnose(sub):
@@ -542,7 +615,7 @@ def _run_diagnose(args) -> int:
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()]
     measurement = load_curve(args.data, radius_mm=args.radius)
     segments = tuple(x.strip() for x in args.segments.split(",") if x.strip())
-    context = Context(workers=args.workers, scheduler=args.scheduler, progress=not args.json)
+    context = Context(workers=args.workers, scheduler=args.scheduler, progress=_progress(args, off=args.json))
     if args.max_rungs < 0:
         raise CLIError(f"--max-rungs must be >= 0, got {args.max_rungs}")
     diag = diagnose(measurement, candidates=candidates, add=add, noise_mN=args.noise, segments=segments,
@@ -577,8 +650,40 @@ def _add_demo(sub):
 def _run_demo(args) -> int:
     from .demo import run_demo
 
-    run_demo(args.out, workers=args.workers, diagnosis=not args.no_diagnosis)
+    run_demo(args.out, workers=args.workers, diagnosis=not args.no_diagnosis, progress=_progress(args))
     return 0
+
+
+def _output_options(parser, top: bool) -> None:
+    """-v/-q/--progress on ``parser``; on a subcommand they default to SUPPRESS, so that the
+    top level's value stands unless given after the subcommand (``skin-indent fit x.csv -q``)."""
+    keep = {} if top else {"default": argparse.SUPPRESS}
+    group = parser.add_argument_group("messages")
+    talk = group.add_mutually_exclusive_group()
+    talk.add_argument("-v", "--verbose", action="count", help="more messages on stderr (details of each phase)",
+                      **({"default": 0} if top else keep))
+    talk.add_argument("-q", "--quiet", action="store_true",
+                      help="only warnings and errors on stderr, no progress bars", **keep)
+    group.add_argument("--progress", action=argparse.BooleanOptionalAction,
+                       help="progress bars on stderr (default: only when stderr is a terminal)",
+                       **({"default": None} if top else keep))
+
+
+def _conventions(parser, top: bool = False) -> None:
+    """The messages options and the exit-status epilog on ``parser`` and every subcommand below it."""
+    _output_options(parser, top)
+    parser.epilog = EXIT_STATUS
+    for action in parser._actions:  # noqa: SLF001 - argparse keeps subcommands only there
+        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+            for child in dict.fromkeys(action.choices.values()):
+                _conventions(child)
+
+
+def _progress(args, off: bool = False):
+    """Progress bars: --progress/--no-progress if given, off with -q (or ``off``), else None (a terminal only)."""
+    if args.progress is not None:
+        return args.progress
+    return False if (args.quiet or off) else None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -593,6 +698,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_surface(sub)
     _add_fit(sub)
     _add_diagnose(sub)
+    _conventions(parser, top=True)
     return parser
 
 
@@ -600,32 +706,37 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``skin-indent`` console script."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(argv)  # a bad option: argparse's usage line and SystemExit(2)
     if not getattr(args, "run", None):
         parser.print_help()
-        return 2
+        return EXIT_USER_ERROR
+    if args.verbose and args.quiet:  # one given before the subcommand, the other after it
+        parser.error("-v/--verbose and -q/--quiet: choose one")
+    from .runtime.log import cli_logging
+
     try:
         from .runtime.threads import configure_threads
 
         configure_threads()  # BLAS threads: 1 per process, or SKIN_INDENT_THREADS=N|off
-        return args.run(args)
+        with cli_logging(f"skin-indent {args.command}", -1 if args.quiet else min(args.verbose, 1)):
+            return args.run(args)
     except (CLIError, ValueError, TypeError, OSError, RuntimeError) as err:  # MeasurementError is a ValueError
         solver = sys.modules.get("skin_indent.mechanics.solver")  # loaded by whatever could fail to converge
         if isinstance(err, RuntimeError) and not (solver and isinstance(err, solver.ConvergenceError)):
             raise
         message = " ".join(str(err).split()) or type(err).__name__
         print(f"skin-indent {args.command}: error: {message}", file=sys.stderr)
-        return 2
+        return EXIT_USER_ERROR
     except ImportError as err:  # an optional extra (dask) is missing: say how to install it
         from .response_surface import DASK_MISSING
 
         if str(err) != DASK_MISSING:
             raise
         print(f"skin-indent {args.command}: error: {err}", file=sys.stderr)
-        return 2
+        return EXIT_USER_ERROR
     except KeyboardInterrupt:
         print(f"skin-indent {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":  # pragma: no cover

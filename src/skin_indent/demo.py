@@ -34,12 +34,13 @@ WINDOW_MM = (0.05, 0.6)
 PAPER_START = (10.0, 0.3)
 
 
-def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, workers=None, progress: bool = True,
+def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, workers=None, progress: bool | None = None,
              echo=print, diagnosis: bool = True) -> dict:
     """Run the demo, write ``demo.png`` and ``demo.json`` into ``out_dir``; return the summary.
 
     With ``diagnosis`` (default), go on with the diagnosis ladder of the same curve and
-    write its report into ``out_dir/diagnosis``.
+    write its report into ``out_dir/diagnosis``. ``progress``: bars of the surface builds
+    (None, the default: only when stderr is a terminal).
     """
     from . import inverse
 

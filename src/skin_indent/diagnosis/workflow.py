@@ -53,6 +53,7 @@ set of numbers per model.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import re
 from dataclasses import dataclass, field
@@ -69,6 +70,8 @@ from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggest
 from ..inverse.residuals import effective_sample_size
 from ..runtime.context import context_of
 from ..runtime.json_io import jsonable
+
+log = logging.getLogger(__name__)
 
 #: BIC drop that names an effect
 STRONG = 10.0
@@ -506,6 +509,8 @@ def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
             weighed.append(e)  # at the nu of the best-fitting model, below
             continue
         wanted.append(name)
+    log.info("examining %s: %d candidate%s on top (%s)", "+".join(("neo-hooke",) + key), len(wanted),
+             "s" if len(wanted) != 1 else "", ", ".join(wanted) or "none")
     fitted = fitter.fit_all([key + (name,) for name in wanted])  # the finite-element fits side by side
     for name in wanted:
         f = fitted[key + (name,)]
@@ -609,6 +614,8 @@ def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
              if math.isfinite(v) and not std.get(k, math.nan) <= DETERMINED * abs(v)]
     predictions = []
     if loose and fitter.in_loop and rung.bound_model is not None and rung.x is not None:
+        log.info("what the curve determines of %s: %s loose; finite-element sensitivities of %d measurements",
+                 rung.model, ", ".join(loose), 1 + len(ALTERNATIVES))
         predictions = assess(fitter, rung, (RECORDED, *ALTERNATIVES))
         recorded = predictions.pop(0).std
         if recorded:  # the finite-element derivatives decide (a surface's slopes can inflate an sd)
@@ -690,6 +697,8 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
     data = prepare_curve(measurement, radius_mm=radius_mm, segments=segments)
     sigma, source = curve_noise(data, noise_mN)
     fitter = Fitter(data, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop)
+    log.info("diagnosing %d points (%s), noise %.3g mN, sphere R = %g mm, mesh %s; finite elements in the loop %s",
+             data.n, ", ".join(segments), sigma, data.radius_mm, mesh, "allowed" if in_loop else "off")
     for i in range(len(add) + 1):
         fitter.fit(add[:i])
 
@@ -708,6 +717,8 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
         named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
         heads = [first.ranking[0]] + named[:BEAM - 1]
         for head in heads:
+            log.info("climbing from %s (at most %d more rung%s)", head.model, max_rungs - 1,
+                     "s" if max_rungs != 2 else "")
             branch_steps = []
             key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
             branches.append((key, branch_steps))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import itertools
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -20,6 +21,8 @@ from ..runtime.json_io import jsonable
 from .identification import hertz_modulus
 from .knowledge import prior_summary, solve_coordinate
 from .surfaces import elastic_core
+
+log = logging.getLogger(__name__)
 
 #: relative accuracy of the forward model (FE + surface), added to the noise in quadrature
 MODEL_ERROR = 0.003
@@ -530,6 +533,9 @@ class Fitter:
         lo, hi = model.bounds
         runs0 = getattr(model.core, "runs", 0)
         in_loop = hasattr(model.core, "prefetch")
+        # measured (module docstring, 2 cores): 50-100 runs and 1-3 minutes per fit in the loop
+        log.info("fitting %s %s", model.name, "with finite elements in the loop (typically 50-100 runs, 1-3 min on "
+                 "2 cores)" if in_loop else "on response surfaces")
         if in_loop:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
             # not from the nested start nor from starts equivalent to it: there the combination is
             # the simpler model exactly (a second layer of the first one's modulus, or under a rigid
@@ -582,6 +588,8 @@ class Fitter:
         if best is None:
             raise ValueError(f"the model {model.name} could not be fitted")
         forward_runs = getattr(model.core, "runs", 0) - runs0
+        if in_loop:
+            log.info("fitted %s: %d finite-element runs", model.name, forward_runs)
         x = np.array([best.parameters[n] for n in model.parameter_names])
         pred = d.force_mN - best.residuals_mN
         cov = np.full((x.size, x.size), np.nan)

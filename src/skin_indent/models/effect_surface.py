@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import logging
 from typing import Mapping
 
 import numpy as np
@@ -39,6 +40,8 @@ from ..response_surface import ResponseSurface
 from ..response_surface import RunStore
 from ..response_surface import resolve_model, run_key, run_task
 from ..runtime.executors import make_executor
+
+log = logging.getLogger(__name__)
 
 __all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve"]
 
@@ -115,7 +118,7 @@ class EffectSurface:
     # ------------------------------------------------------------------ build
     @classmethod
     def build(cls, effects, axes, grid: SurfaceGrid, *, radius_mm: float = 6.22, mesh: str = "medium",
-              cache_dir=None, workers=None, progress: bool = True, client=None, scheduler=None,
+              cache_dir=None, workers=None, progress: bool | None = None, client=None, scheduler=None,
               executor=None) -> "EffectSurface":
         """Load or build the sub-surfaces (one per effect node; runs cached in ``cache_dir``).
 
@@ -133,12 +136,12 @@ class EffectSurface:
             Default :func:`default_cache_dir`.
         workers, client, scheduler, executor
             As in :meth:`ResponseSurface.build`; one executor serves all sub-surfaces.
-        progress : bool
-            A tqdm bar over all runs.
+        progress : bool or None
+            A tqdm bar over all runs (default None: only when stderr is a terminal).
         """
         from pathlib import Path
 
-        from tqdm.auto import tqdm
+        from ..runtime.log import progress_bar
 
         effects = tuple(effects)
         cache_dir = Path(default_cache_dir() if cache_dir is None else cache_dir)
@@ -172,21 +175,48 @@ class EffectSurface:
         owned = executor is None
         ex = executor if executor is not None else make_executor(workers, client=client, scheduler=scheduler,
                                                                  tasks=len(tasks))
-        bar = tqdm(total=len(tasks), disable=not progress, desc=" + ".join(effects) + " surface", unit="run")
+        log.info("%s surface R = %g mm, mesh %s: %d finite-element run%s to make (%d sub-surfaces, %d incomplete)",
+                 " + ".join(effects), radius_mm, mesh, len(tasks), "s" if len(tasks) != 1 else "", surfaces.size,
+                 len(pending))
+        bar = progress_bar(progress, total=len(tasks), desc=" + ".join(effects) + " surface", unit="run")
+        claims, busy = {}, []  # runs computed here under their locks; runs another builder computes
+
+        def claimed():
+            for (idx, nu), args in tasks:  # each run under its lock, after checking it is not done meanwhile
+                lock = stores[idx].claim(nu)
+                if lock is None:
+                    busy.append((idx, nu))
+                    continue
+                stores[idx].refresh()
+                if stores[idx].load(nu) is not None:
+                    lock.release()
+                    bar.update()
+                    continue
+                claims[idx, nu] = lock
+                yield (idx, nu), args
+
         try:
-            for (idx, nu), out, error in ex.imap_unordered(run_task, iter(tasks)):
+            for (idx, nu), out, error in ex.imap_unordered(run_task, claimed()):
                 bar.update()
-                if error is not None:
-                    stores[idx].record_failed(nu, f"{type(error).__name__}: {' '.join(str(error).split())}")
-                elif out["values"] is None:
-                    stores[idx].record_failed(nu, out["reason"], worker=out["worker"])
-                else:
-                    stores[idx].record_done(nu, out["values"], seconds=out["seconds"],
-                                            cpu_seconds=out.get("cpu_seconds"), worker=out["worker"])
+                try:
+                    if error is not None:
+                        stores[idx].record_failed(nu, f"{type(error).__name__}: {' '.join(str(error).split())}")
+                    elif out["values"] is None:
+                        stores[idx].record_failed(nu, out["reason"], worker=out["worker"])
+                    else:
+                        stores[idx].record_done(nu, out["values"], seconds=out["seconds"],
+                                                cpu_seconds=out.get("cpu_seconds"), worker=out["worker"])
+                finally:
+                    claims.pop((idx, nu)).release()
+            for idx, nu in busy:  # wait for the other builder; a run it could not finish stays missing
+                stores[idx].claim(nu, wait=True).release()
+                bar.update()
             for idx, curve, settings in pending:  # assembled from the store; failed runs stay missing
                 surfaces[idx] = ResponseSurface.load_or_build(grid, settings, curve, cache_dir=cache_dir,
                                                               progress=False, executor=_FailAgain())
         finally:
+            for lock in claims.values():
+                lock.release()
             bar.close()
             if owned:
                 ex.close()

@@ -4,7 +4,8 @@ Layout of ``cache_dir/runs/<key[:24]>/``::
 
     settings.json                      the settings and depths (for humans)
     manifest.json                      what is finished, written atomically
-    .lock                              fcntl.flock around every manifest update
+    .lock                              file lock around every manifest update
+    .nu_<nu>.lock                      held by the builder computing that run
     nu_<nu>_<sha256[:16]>.npz          one finished run, content-addressed
 
 The manifest (JSON) lists each run by nu: ``status`` ``"done"`` with the run file's
@@ -16,10 +17,13 @@ into place only once complete (and fsynced), and listed only after that, a build
 that is killed at any instant leaves a cache whose listed runs are all complete.
 
 Several processes may build into the same directory at once: each update of the
-manifest re-reads it under an exclusive ``flock`` of ``.lock`` and merges one entry
-(a finished run is never replaced by a failure). Run files are named by their
-content, and written deterministically, so two processes that compute the same run
-write the same file. The kernel drops the lock of a killed process.
+manifest re-reads it under an exclusive lock of ``.lock`` (:func:`file_lock`, the
+``filelock`` library: ``flock`` on POSIX) and merges one entry (a finished run is never
+replaced by a failure). A builder computes a run only while it holds that run's lock
+(:meth:`RunStore.claim`) and after checking, under it, that the run is not done: two
+builders of one surface share the runs, each computed once. Run files are named by
+their content, and written deterministically, so two processes that compute the same
+run write the same file. The kernel drops the locks of a killed process.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
+from filelock import FileLock, Timeout
 
 from ..runtime.atomic import atomic_write
 from ._cache import canonical_json
@@ -47,31 +52,22 @@ _VERSION = 1
 #: temporary files older than this (s) are left-overs of killed writers, removed
 STALE_TMP_S = 3600.0
 
-try:  # POSIX
-    import fcntl
-except ImportError:  # pragma: no cover - Windows
-    fcntl = None
+
+def _lock(path) -> FileLock:
+    # not thread-local: a claim taken while tasks are handed out is released where results come in
+    return FileLock(os.fspath(path), mode=0o644, thread_local=False)
 
 
 @contextlib.contextmanager
 def file_lock(path: Path):
-    """Exclusive advisory lock on ``path`` (created if needed) for the ``with`` block."""
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        if fcntl is not None:
-            fcntl.flock(fd, fcntl.LOCK_EX)
-        else:  # pragma: no cover - Windows: lock the first byte
-            import msvcrt
+    """Exclusive advisory lock on ``path`` (created if needed, 0644) for the ``with`` block.
 
-            while True:
-                try:
-                    msvcrt.locking(fd, msvcrt.LK_LOCK, 1)
-                    break
-                except OSError:
-                    continue
+    Blocks until the lock is free; a separate lock per call, so two threads of one
+    process exclude each other as two processes do. The kernel releases the lock of a
+    killed process.
+    """
+    with _lock(path):
         yield
-    finally:
-        os.close(fd)  # releases the lock
 
 
 def npz_bytes(**arrays) -> bytes:
@@ -280,6 +276,16 @@ class RunStore:
             runs[nu_tag(nu)] = {"nu": nu, "status": "failed", "reason": " ".join(str(reason).split()),
                                 "attempts": attempts + 1, "finished": _now(), "worker": worker,
                                 "by": f"{socket.gethostname()}:{os.getpid()}"}
+
+    def claim(self, nu: float, *, wait: bool = False) -> FileLock | None:
+        """The lock of run ``nu``, acquired (release it when the run is recorded), or None if another
+        builder holds it (with ``wait``: block until it is free, then take it)."""
+        lock = _lock(self.dir / f".nu_{nu_tag(nu)}.lock")
+        try:
+            lock.acquire(timeout=-1 if wait else 0)
+        except Timeout:
+            return None
+        return lock
 
     def failed(self) -> dict[float, str]:
         """``{nu: reason}`` of the runs listed as failed (as last read)."""

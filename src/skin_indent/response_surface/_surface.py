@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import os
 import pickle
 import warnings
@@ -18,6 +19,9 @@ from ..runtime.executors import Executor, import_distributed, make_executor
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
 from ._store import RunStore
+from ..runtime.log import progress_bar
+
+log = logging.getLogger(__name__)
 
 METHODS = ("lagrange", "spline")
 DEPTH_INTERPS = ("lagrange", "quartic", "spline")
@@ -31,6 +35,14 @@ def _check_choice(name, value, choices):
     if value not in choices:
         raise ValueError(f"{name}={value!r} is not one of {choices}")
     return value
+
+
+def _describe(settings, grid) -> str:
+    """``"response surface R = 1 mm, mesh coarse (6 nu x 100 depths)"``: which surface a log line is about."""
+    where = "".join(f", {k} {settings[k]}" for k in ("model", "mesh") if isinstance(settings.get(k), str))
+    radius = settings.get("radius_mm")
+    return (f"response surface{'' if radius is None else f' R = {radius:g} mm'}{where} "
+            f"({grid.nu.size} nu x {grid.depth_mm.size} depths)")
 
 
 def _choose_executor(unit_curve, workers, client, scheduler, executor, n_todo) -> tuple[Executor, bool]:
@@ -141,7 +153,7 @@ class ResponseSurface:
     @classmethod
     def build(cls, grid: SurfaceGrid, unit_curve: UnitCurve | None = None, settings: Mapping | None = None,
               cache_dir: str | os.PathLike | None = None, workers: int | None = None,
-              progress: bool = True, *, client=None, scheduler: str | None = None,
+              progress: bool | None = None, *, client=None, scheduler: str | None = None,
               executor: Executor | None = None, **options) -> "ResponseSurface":
         """Run the unit curve once per nu and assemble the surface.
 
@@ -165,13 +177,16 @@ class ResponseSurface:
             ``manifest.json`` (see :class:`RunStore`). A rerun (after a crash or a kill
             of this process or a worker) computes only what the manifest does not list
             as done; failed runs are listed with their reason and retried. Several
-            processes may build into one cache at once; a run that another process
-            finishes meanwhile is read, not computed. Default: nothing is written.
+            processes may build into one cache at once: a run is computed only under its
+            lock, after checking that it is not done, so each run is computed once and a
+            run that another process computes meanwhile is waited for and read.
+            Default: nothing is written.
         workers : int, optional
             Local processes; default ``min(available CPUs, runs to do)``, or 1 if
             ``unit_curve`` cannot be pickled. 1 runs in this process.
-        progress : bool
-            Show a tqdm progress bar (stderr).
+        progress : bool or None
+            Show a tqdm progress bar (stderr); default None: only when stderr is a terminal
+            (:func:`skin_indent.runtime.log.progress_bar`).
         client : dask.distributed.Client, optional
             Run the forward runs on this Dask cluster (needs ``pip install
             'skin_indent[dask]'``); results still come back here and are cached here.
@@ -199,8 +214,6 @@ class ResponseSurface:
         OSError
             The Dask scheduler cannot be reached, or the cache cannot be written.
         """
-        from tqdm.auto import tqdm
-
         unit_curve, settings = resolve_model(unit_curve, settings)
         if (client is not None or scheduler is not None) and executor is None:
             import_distributed()  # fail with the install hint before any output
@@ -217,19 +230,33 @@ class ResponseSurface:
             else:
                 f[:, k] = done
         failures: dict[float, str] = {}
-        bar = tqdm(total=nus.size, initial=nus.size - len(todo), disable=not progress,
-                   desc="response surface", unit="run")
+        what = _describe(settings, grid)
+        if todo:
+            log.info("%s: %d finite-element run%s to make, %d of %d cached%s", what, len(todo),
+                     "s" if len(todo) != 1 else "", nus.size - len(todo), nus.size,
+                     "" if store is None else f" (in {store.dir})")
+        else:
+            log.debug("%s: all %d runs cached in %s", what, nus.size, store.dir)
+        bar = progress_bar(progress, total=nus.size, initial=nus.size - len(todo), desc="response surface",
+                           unit="run")
+        claims: dict = {}  # k -> the run's lock, held while this builder computes it
+        busy: list = []  # runs another builder is computing: waited for afterwards
 
-        def tasks():
-            for k in todo:
+        def tasks(indices):
+            for k in indices:
                 if store is not None:
-                    store.refresh()  # a stat; re-reads the manifest only if it changed
-                if store is not None and store.is_done(nus[k]):
-                    done = store.load(nus[k])  # another process finished it meanwhile
+                    lock = store.claim(nus[k])
+                    if lock is None:
+                        busy.append(k)
+                        continue
+                    store.refresh()  # under the run's lock: is it done meanwhile? (a stat, or a re-read)
+                    done = store.load(nus[k])
                     if done is not None:
+                        lock.release()
                         f[:, k] = done
                         bar.update()
                         continue
+                    claims[k] = lock
                 yield k, (unit_curve, float(nus[k]), depth)
 
         def fail(k, nu, reason, worker=None):
@@ -239,16 +266,16 @@ class ResponseSurface:
             warnings.warn(f"forward run at nu = {nu:g} failed ({reason}); column left missing",
                           RuntimeWarning, stacklevel=4)
 
-        try:
-            if todo:
-                ex, owned = _choose_executor(unit_curve, workers, client, scheduler, executor, len(todo))
-                # remote workers may run another installation: check what they ran (local
-                # processes run this one, which may be edited meanwhile in development)
-                expected_code = expected_code_of(settings) if ex.remote else None
-                try:
-                    for k, out, error in ex.imap_unordered(run_task, tasks()):
-                        nu = float(nus[k])
-                        bar.update()
+        def compute(indices):
+            ex, owned = _choose_executor(unit_curve, workers, client, scheduler, executor, len(indices))
+            # remote workers may run another installation: check what they ran (local
+            # processes run this one, which may be edited meanwhile in development)
+            expected_code = expected_code_of(settings) if ex.remote else None
+            try:
+                for k, out, error in ex.imap_unordered(run_task, tasks(indices)):
+                    nu = float(nus[k])
+                    bar.update()
+                    try:
                         if error is not None:  # the call did not come back (worker died, ...)
                             why = " ".join(str(error).split())
                             fail(k, nu, f"{type(error).__name__}: {why}" if why else type(error).__name__)
@@ -263,10 +290,26 @@ class ResponseSurface:
                             if store is not None:
                                 store.record_done(nu, out["values"], seconds=out["seconds"],
                                                   cpu_seconds=out.get("cpu_seconds"), worker=out["worker"])
-                finally:
-                    if owned:
-                        ex.close()
+                    finally:
+                        if k in claims:
+                            claims.pop(k).release()
+            finally:
+                if owned:
+                    ex.close()
+
+        try:
+            pending = todo
+            while pending:
+                compute(pending)
+                pending, busy[:] = list(busy), []
+                if pending:  # other builders compute these: wait for them, then take what they left
+                    log.info("%s: waiting for %d run%s another process is computing", what, len(pending),
+                             "s" if len(pending) != 1 else "")
+                    for k in pending:
+                        store.claim(nus[k], wait=True).release()
         finally:
+            for lock in claims.values():
+                lock.release()
             bar.close()
         return cls(grid, f, settings=settings, failures=failures, **options)
 
@@ -327,7 +370,7 @@ class ResponseSurface:
     def load_or_build(cls, grid: SurfaceGrid, settings: Mapping | None = None,
                       unit_curve: UnitCurve | None = None, *, path: str | os.PathLike | None = None,
                       cache_dir: str | os.PathLike | None = None, workers: int | None = None,
-                      progress: bool = True, client=None, scheduler: str | None = None,
+                      progress: bool | None = None, client=None, scheduler: str | None = None,
                       executor: Executor | None = None, **options) -> "ResponseSurface":
         """Reuse a stored surface if its hash matches ``settings`` and ``grid``, else build.
 
@@ -354,6 +397,7 @@ class ResponseSurface:
             except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile):  # unreadable: rebuild
                 stored = None
             if stored is not None and stored.hash == key and stored.complete:
+                log.debug("response surface %s loaded from %s", key[:12], path)
                 return stored
         out = cls.build(grid, unit_curve, settings, cache_dir=cache_dir, workers=workers, progress=progress,
                         client=client, scheduler=scheduler, executor=executor, **options)

@@ -25,8 +25,9 @@ class Context:
         Run on this Dask cluster.
     scheduler : str, optional
         ``"tcp://HOST:PORT"`` of a Dask scheduler.
-    progress : bool
-        Show a progress bar while runs are made.
+    progress : bool or None
+        Show a progress bar while runs are made: True always, False never, None only when
+        stderr is a terminal (:func:`skin_indent.runtime.log.progress_bar`).
 
     Examples
     --------
@@ -39,7 +40,7 @@ class Context:
     workers: int | None = None
     client: object = None
     scheduler: str | None = None
-    progress: bool = False
+    progress: bool | None = False
 
     def build_options(self) -> dict:
         """The keywords of :meth:`~skin_indent.response_surface.ResponseSurface.load_or_build`."""
