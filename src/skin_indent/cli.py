@@ -405,6 +405,8 @@ def _run_fit(args) -> int:
         from .fitting.profile import write_profile
 
         write_profile(_fit_settings(args, fixed, window, priors), args.save_profile)
+        if not args.json:
+            print(f"wrote the profile of this fit to {args.save_profile}")
     x0 = _parse_start(args.start) if args.start else None
     surface = None
     if args.surface is not None:
@@ -505,10 +507,12 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, window=window, contact=args.contact,
                         fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=not args.json,
                         surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot, command=args.command_line)
+    if args.surface is not None:  # replayable: the file, not the object fit_many was given
+        rows.provenance["settings"]["surface"] = str(args.surface)
     if args.profile is not None:
         from .runtime.provenance import file_identity
 
-        rows.provenance["profile"] = file_identity(args.profile)
+        rows.provenance["inputs"].append(file_identity(args.profile))
     if args.out is not None:
         write_tsv(rows, args.out)
     if args.plot is not None and rows:
