@@ -122,6 +122,16 @@ def test_a_toml_profile_and_the_command_line_over_it(fitted, capsys):
     assert other["provenance"]["settings"]["window_mm"] == [0.0, 0.01]  # the rest from the profile
 
 
+def test_a_model_fit_with_a_prior_replays_from_its_json(cache, tmp_path, capsys):
+    """The model path (``--prior`` implies it): its JSON output, given as a profile, gives the same numbers."""
+    code, out = fit_json(capsys, CLEAN, "--prior", "nu=0.45:0.02")
+    assert code == 0 and out["provenance"]["settings"]["priors"] == {"nu": [0.45, 0.02]}
+    (tmp_path / "fit.json").write_text(json.dumps(out))
+    code, again = fit_json(capsys, CLEAN, "--profile", tmp_path / "fit.json")
+    assert code == 0
+    assert again["model"] == "neo-hooke" and again["parameters"] == out["parameters"]
+
+
 @pytest.mark.parametrize("content, message", [
     ("{not json", "not JSON (line 1"),
     ('{"method": "newton"}', "method must be one of"),
