@@ -168,9 +168,11 @@ def provenance(command=None, inputs: Iterable = (), settings: Mapping | None = N
     ----------
     command : str or sequence of str, optional
         The command line; default ``sys.argv`` of this process.
-    inputs : iterable of path
+    inputs : iterable of path or mapping
         Input files; each is recorded with its absolute path, sha256 and size in bytes
-        (:func:`file_identity`), in the order given, each once.
+        (:func:`file_identity`; a file is hashed once while its size and modification
+        time stay the same), in the order given, each once. A mapping (a curve held in
+        memory, :func:`data_identity`) is recorded as it is.
     settings : mapping, optional
         The settings of the computation, e.g. ``{"radius_mm": 0.02, "window_mm":
         [0, 0.005], "method": "lsq", "mesh": "medium", "fixed": {"nu": 0.499}}``
