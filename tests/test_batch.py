@@ -165,8 +165,8 @@ def test_plot_fit_and_write_fit_csv_directly(batch, tmp_path):
     np.testing.assert_array_equal(a["residual_mN"], fit.residuals_mN)
     np.testing.assert_allclose(a["model_mN"] + a["residual_mN"], a["force_mN"])
     assert plot_fit(fit, tmp_path / "sub" / "fit.png").stat().st_size > 1000
-    out = write_fit_csv(fit, tmp_path / "fit.csv")  # no provenance: no provenance lines
-    assert read_provenance(out) == {}
+    out = write_fit_csv(fit, tmp_path / "fit.csv")  # no provenance given: the fit's own, its API call
+    assert read_provenance(out)["api"] == "skin_indent.fit" and read_provenance(out) == fit.provenance
 
 
 def test_summary_figure(batch, tmp_path):

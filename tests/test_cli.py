@@ -3,11 +3,18 @@
 import subprocess
 import sys
 from contextlib import nullcontext
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from skin_indent.cli import main
+
+
+def _rows(path):
+    """The header and the numbers of a CSV the CLI wrote, past its ``#`` provenance lines."""
+    lines = [line for line in Path(path).read_text().splitlines() if not line.startswith("#")]
+    return lines[0], np.loadtxt(lines[1:], delimiter=",", ndmin=2)
 
 
 def run_cli(*args):
@@ -22,8 +29,8 @@ def test_simulate_writes_curve_and_fields(tmp_path):
                                    "6.22", "--depth", "0.6", "--points", "100", "--out", str(out), "--vtu", str(vtu),
                                    "--mesh", "coarse")
     assert code == 0, stderr
-    assert out.read_text().splitlines()[0] == "depth_mm,force_mN"
-    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    header, data = _rows(out)
+    assert header == "depth_mm,force_mN"
     assert data.shape == (100, 2)
     assert np.allclose(data[:, 0], 0.006 * np.arange(1, 101))
     assert np.all(np.diff(data[:, 1]) > 0) and 15 < data[-1, 1] < 22  # ~ Hertz 18.6 mN minus ~2%
@@ -71,11 +78,11 @@ def test_simulate_effect_options(tmp_path):
     assert main(["simulate", "--prony", "0.4,5", "--E", "10", "--nu", "0.45", "--unload", "--out", str(visco),
                  *common]) == 0
     assert main(["simulate", "--offset", "0.1", "--out", str(shifted), *common]) == 0
-    t, d, F = np.loadtxt(visco, delimiter=",", skiprows=1).T
+    t, d, F = _rows(visco)[1].T
     assert d.size == 12 and d.max() == pytest.approx(0.3) and F[-1] == 0.0  # contact lost at depth 0
     up, down = F[:5], F[6:11][::-1]  # the same depths 0.05 ... 0.25 mm on the way in and out
     assert np.all(down < up)  # viscoelastic hysteresis: less force on the way back
-    d, F = np.loadtxt(shifted, delimiter=",", skiprows=1).T
+    d, F = _rows(shifted)[1].T
     assert np.all(F[d <= 0.1] == 0) and np.all(F[d > 0.1] > 0)
 
 

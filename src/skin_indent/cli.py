@@ -133,7 +133,7 @@ def _run_simulate(args) -> int:
 
     curve = simulate(material, indenter, args.depth, args.points, mesh=args.mesh, increments=args.increments,
                      protocol=protocol, offset_mm=args.offset, keep_state=args.vtu is not None, contact=contact)
-    curve.to_csv(args.out)
+    curve.to_csv(args.out, _provenance(args, [args.protocol] if args.protocol else [], leave_out=("out", "vtu")))
     print(f"mesh: {curve.mesh_name}")
     print(f"Newton: {curve.report.summary()}")
     k = int(np.argmax(curve.force_mN))
@@ -343,7 +343,7 @@ def _add_fit(sub):
                         "--prior coarse, as diagnose)")
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="fit on this Dask scheduler")
-    p.add_argument("--method", choices=("ekf-paper", "ekf", "lsq"), default="lsq",
+    p.add_argument("--method", choices=("ekf-paper", "ekf", "lsq"), default=None,
                    help="ekf-paper: the paper's filter; ekf: better-conditioned filter; lsq: least squares (default)")
     p.add_argument("--surface", type=Path, default=None,
                    help="response surface file (default: cache, built if needed); a neo-Hookean surface of another "
@@ -371,7 +371,7 @@ def _add_fit(sub):
                         "thickness_mm=1.2:0.1 (ultrasound); implies the model path (--model, default neo-hooke)")
     p.add_argument("--noise", type=float, default=None,
                    help="noise standard deviation of a raw sample, mN (default: from the data)")
-    p.add_argument("--contact", choices=("auto", "fit", "origin"), default="auto",
+    p.add_argument("--contact", choices=("auto", "fit", "origin"), default=None,
                    help="contact point: auto (fitted if the curve has a pre-contact baseline, else recorded depth "
                         "0; default), fit (always fitted), origin (recorded depth 0)")
     p.add_argument("--tol", type=float, default=None, help="stop rule C of the filters (default 1e-6)")
@@ -381,6 +381,12 @@ def _add_fit(sub):
                         "< 1e-3, fewer than 5 points in contact per parameter, a parameter's sd above its value); "
                         "default on for several curves, off for one. Flags are always printed as warnings")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--profile", type=Path, default=None, metavar="FILE",
+                   help="take the settings of this fit profile (JSON; TOML with Python >= 3.11: keys model, fix, "
+                        "prior, method, window, radius, mesh, noise, contact, start, tol, index, surface), or of "
+                        "the provenance of a fit output (JSON, CSV, TSV or PNG); options given override it")
+    p.add_argument("--save-profile", type=Path, default=None, metavar="FILE",
+                   help="write the settings of this run as a profile (TOML for a .toml name, else JSON)")
     p.set_defaults(run=_run_fit)
 
 
@@ -398,18 +404,58 @@ def _positive_radius(radius):
 
 
 def _fit_settings(args, fixed, window, priors=None) -> dict:
+    """The settings of a fit as its provenance records them (a profile: :mod:`skin_indent.fitting.profile`)."""
     out = {"radius_mm": args.radius, "window_mm": window, "method": args.method, "mesh": args.mesh,
-           "fixed": fixed, "free": list(args.free), "contact": args.contact, "index": args.index}
+           "fixed": fixed, "free": list(args.free), "contact": args.contact, "index": args.index,
+           "noise_mN": args.noise, "x0": None if args.start is None else _parse_start(args.start), "tol": args.tol,
+           "surface": None if args.surface is None else str(args.surface)}
     if args.model is not None or priors:
-        out.update(model=args.model or "neo-hooke", priors={k: list(v) for k, v in (priors or {}).items()},
-                   noise_mN=args.noise)
+        out.update(model=args.model or "neo-hooke", priors={k: list(v) for k, v in (priors or {}).items()})
     return out
+
+
+def _provenance(args, inputs, settings=None, surface=None, leave_out=()):
+    """The provenance of a command's output: its command line, inputs and settings (default its options)."""
+    from .runtime.provenance import provenance
+
+    if settings is None:
+        settings = {k: v for k, v in vars(args).items()
+                    if k not in ("run", "command", "command_line", "json", "workers", "scheduler", *leave_out)}
+    return provenance(command=getattr(args, "command_line", None), inputs=inputs, settings=settings,
+                      surface=surface)
+
+
+def _apply_profile(args) -> None:
+    """Fill the fit options not given on the command line from ``--profile``, then the defaults."""
+    from .fitting.profile import read_profile
+
+    prof = read_profile(args.profile) if args.profile is not None else {}
+    for key in ("model", "method", "radius", "mesh", "noise", "contact", "tol", "index"):
+        if getattr(args, key) is None and key in prof:
+            setattr(args, key, prof[key])
+    if args.window is None and "window" in prof:
+        args.window = "{!r}:{!r}".format(*prof["window"])
+    if args.start is None and "start" in prof:
+        args.start = "{!r},{!r}".format(*prof["start"])
+    if args.surface is None and "surface" in prof:
+        args.surface = Path(prof["surface"])
+        if not args.surface.is_file():
+            raise CLIError(f"--profile {args.profile}: its surface file {prof['surface']!r} is not found; give "
+                           "--surface FILE")
+    # --fix and --prior by name: the command line's after the profile's, so they win
+    args.fix = [f"{k}={v!r}" for k, v in prof.get("fix", {}).items()] + list(args.fix)
+    args.prior = [f"{k}={m!r}:{sd!r}" for k, (m, sd) in prof.get("prior", {}).items()] + list(args.prior)
+    if not args.free and "free" in prof:
+        args.free = list(prof["free"])
+    args.method = args.method or "lsq"
+    args.contact = args.contact or "auto"
 
 
 def _run_fit(args) -> int:
     from .runtime.context import Context
     from .measurement import load_curves
 
+    _apply_profile(args)
     _positive_radius(args.radius)
     if args.workers is not None and args.scheduler is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
@@ -439,6 +485,12 @@ def _run_fit(args) -> int:
                            "(--method lsq)")
     args.priors = priors
     window = _parse_window(args.window) if args.window else None
+    if args.save_profile is not None:
+        from .fitting.profile import write_profile
+
+        write_profile(_fit_settings(args, fixed, window, priors), args.save_profile)
+        if not args.json:
+            print(f"wrote the profile of this fit to {args.save_profile}")
     x0 = _parse_start(args.start) if args.start else None
     surface = None
     if args.surface is not None:
@@ -464,7 +516,6 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     """One curve: the report (or JSON), errors as one line (exit 2), flags as warnings."""
     from .fitting import fit
     from .measurement import prepare
-    from .runtime.provenance import provenance
 
     chosen = args.model is not None or bool(args.priors)
     if chosen:
@@ -486,8 +537,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     if chosen:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
                      noise_mN=args.noise, context=context, mesh=args.mesh)
-        return _fit_output(args, path, result, provenance(inputs=[path], settings=_fit_settings(args, fixed, window,
-                                                                                              args.priors)))
+        return _fit_output(args, path, result, _provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window,
+                                                                                                args.priors)))
     if surface is not None:
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:
@@ -498,8 +549,13 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
                                f"{prepared.radius_mm:g} mm") from None
     result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
                  context=context, mesh=args.mesh, free=args.free)
-    prov = provenance(inputs=[path], settings=_fit_settings(args, fixed, window), surface=result.surface)
+    prov = _provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window), result.surface)
     return _fit_output(args, path, result, prov)
+
+
+def _fit_inputs(args) -> list:
+    """The files a fit reads: the data, and the profile and surface file when given."""
+    return [*args.data, *(p for p in (args.profile, args.surface) if p is not None)]
 
 
 def _fit_output(args, path, result, prov) -> int:
@@ -511,7 +567,7 @@ def _fit_output(args, path, result, prov) -> int:
         from .report.fit_figure import plot_fit, write_fit_csv
 
         args.plot.mkdir(parents=True, exist_ok=True)
-        plot_fit(result, args.plot / f"{path.stem}.png")
+        plot_fit(result, args.plot / f"{path.stem}.png", provenance=prov)
         write_fit_csv(result, args.plot / f"{path.stem}.csv", prov)
     if args.json:
         print(dumps(with_provenance(result.to_dict(), prov)))
@@ -536,12 +592,18 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     if args.model is not None or args.priors:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, fixed=fixed, mesh=args.mesh,
                         context=context, progress=context.progress, plot_dir=args.plot, model=args.model or "neo-hooke",
-                        priors=args.priors, recursive=args.recursive)
+                        priors=args.priors, recursive=args.recursive, command=args.command_line)
     else:
         rows = fit_many(args.data, index=args.index, radius_mm=args.radius, window=window, contact=args.contact,
                         fixed=fixed, method=args.method, mesh=args.mesh, context=context, progress=context.progress,
                         surface=surface, tol=args.tol, x0=x0, plot_dir=args.plot, free=args.free,
-                        recursive=args.recursive)
+                        recursive=args.recursive, command=args.command_line)
+    if args.surface is not None:  # replayable: the file, not the object fit_many was given
+        rows.provenance["settings"]["surface"] = str(args.surface)
+    if args.profile is not None:
+        from .runtime.provenance import file_identity
+
+        rows.provenance["inputs"].append(file_identity(args.profile))
     if args.out is not None:
         write_tsv(rows, args.out)
     if args.plot is not None and rows:
@@ -620,13 +682,14 @@ def _run_diagnose(args) -> int:
         raise CLIError(f"--max-rungs must be >= 0, got {args.max_rungs}")
     diag = diagnose(measurement, candidates=candidates, add=add, noise_mN=args.noise, segments=segments,
                     max_rungs=args.max_rungs, in_loop=not args.surfaces_only, context=context, mesh=args.mesh)
+    prov = _provenance(args, [args.data], leave_out=("data", "report"))
     if args.report is not None:
-        page = write_report(diag, args.report)
+        page = write_report(diag, args.report, provenance=prov)
     if args.json:
         out = diag.to_dict()
         if args.report is not None:
             out["report"] = str(page)
-        print(dumps(out))
+        print(dumps({**out, "provenance": prov}))
     else:
         print(diag.report())
         if args.report is not None:
@@ -650,7 +713,8 @@ def _add_demo(sub):
 def _run_demo(args) -> int:
     from .demo import run_demo
 
-    run_demo(args.out, workers=args.workers, diagnosis=not args.no_diagnosis, progress=_progress(args))
+    run_demo(args.out, workers=args.workers, diagnosis=not args.no_diagnosis, progress=_progress(args),
+             command=args.command_line)
     return 0
 
 
@@ -707,6 +771,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``skin-indent`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)  # a bad option: argparse's usage line and SystemExit(2)
+    args.command_line = ["skin-indent", *(sys.argv[1:] if argv is None else argv)]  # for every provenance
     if not getattr(args, "run", None):
         parser.print_help()
         return EXIT_USER_ERROR

@@ -16,7 +16,6 @@ one sentence saying what was missing.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -28,6 +27,10 @@ from .diagnosis import diagnose
 from .report import write_report
 from .fitting import PAPER_TOLERANCE, identify, surface_for
 from .measurement import load_csv, prepare
+from .report._save import save_figure
+from .runtime.atomic import atomic_write
+from .runtime.json_io import dumps
+from .runtime.provenance import provenance, with_provenance
 
 RADIUS_MM = 6.22
 WINDOW_MM = (0.05, 0.6)
@@ -35,18 +38,22 @@ PAPER_START = (10.0, 0.3)
 
 
 def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, workers=None, progress: bool | None = None,
-             echo=print, diagnosis: bool = True) -> dict:
+             echo=print, diagnosis: bool = True, command=None) -> dict:
     """Run the demo, write ``demo.png`` and ``demo.json`` into ``out_dir``; return the summary.
 
     With ``diagnosis`` (default), go on with the diagnosis ladder of the same curve and
     write its report into ``out_dir/diagnosis``. ``progress``: bars of the surface builds
-    (None, the default: only when stderr is a terminal).
+    (None, the default: only when stderr is a terminal). Every output carries the provenance of
+    the run (``command``: the command line to record, default ``sys.argv``; the bundled
+    curve with its sha256; the settings; the surface): ``demo.json`` under
+    ``"provenance"``, the figures in their PNG metadata, the report in its page.
     """
     from . import inverse
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    measurement = load_csv(bundled_path("forearm_like.csv"), radius_mm=RADIUS_MM)
+    source = bundled_path("forearm_like.csv")
+    measurement = load_csv(source, radius_mm=RADIUS_MM)
     data = prepare(measurement, window=WINDOW_MM, contact="origin").data
     echo(f"data: {measurement.source} ({measurement.n_points} points; fitting {data.n_points} in "
          f"{WINDOW_MM[0]}-{WINDOW_MM[1]} mm), sphere R = {RADIUS_MM} mm")
@@ -81,8 +88,12 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
     if lsq.rms_mN > 1.5 * noise:
         echo("the homogeneous half-space does not explain this curve to the noise level (as in the paper's "
              "Fig. 11): the residual is structured, something is missing from the model")
+    prov = provenance(command=command, inputs=[source], surface=surface,
+                      settings={"radius_mm": RADIUS_MM, "window_mm": list(WINDOW_MM), "contact": "origin",
+                                "methods": list(results), "x0_ekf_paper": list(PAPER_START),
+                                "tol_ekf_paper": PAPER_TOLERANCE, "diagnosis": diagnosis})
     figure = out / "demo.png"
-    _figure(data, surface, results, noise, figure)
+    _figure(data, surface, results, noise, figure, prov)
     diag = page = None
     if diagnosis:
         echo("what is missing? the diagnosis ladder (finite-element fits in the loop where no surface combines "
@@ -92,7 +103,7 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
         for f in diag.ladder:
             echo(f"  {f.model:<32} RMS {f.rms_mN:.4f} mN  {'white' if f.white else 'structured'}")
         echo(diag.sentence())
-        page = write_report(diag, out / "diagnosis")
+        page = write_report(diag, out / "diagnosis", provenance=prov)
         timings["diagnose"] = time.perf_counter() - t
     summary = {
         "data": str(measurement.source),
@@ -104,13 +115,33 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
                        "rms_mN": list(map(float, prof.rms_mN))},
         "diagnosis": diag.to_dict() if diag is not None else None,
     }
-    (out / "demo.json").write_text(json.dumps(summary, indent=1))
+    write_summary(out / "demo.json", summary, prov)
     echo(f"wrote {figure} (fit, residuals, parameter histories), "
          + (f"the diagnosis report {page} (the ladder) " if page else "") + f"and {out / 'demo.json'}")
     return summary
 
 
-def _figure(data, surface, results, noise, path):
+def write_summary(path, summary: dict, prov: dict) -> Path:
+    """Write the demo's summary as JSON with its provenance (``"provenance"``), atomically.
+
+    Parameters
+    ----------
+    path : path
+        ``demo.json``.
+    summary : dict
+        What :func:`run_demo` returns (made JSON-safe: NaN as null).
+    prov : dict
+        :func:`skin_indent.runtime.provenance.provenance` of the run.
+
+    Returns
+    -------
+    Path
+    """
+    text = dumps(with_provenance(summary, prov), indent=1) + "\n"
+    return atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
+
+
+def _figure(data, surface, results, noise, path, prov=None):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -131,5 +162,5 @@ def _figure(data, surface, results, noise, path):
     ax_e = fig.add_subplot(grid[1, 1])
     ax_nu = fig.add_subplot(grid[2, 1], sharex=ax_e)
     plot_sweep_history(paper, axes=[ax_e, ax_nu])
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, prov, dpi=110)
     plt.close(fig)

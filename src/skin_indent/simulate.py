@@ -14,6 +14,8 @@ Example
 
 from __future__ import annotations
 
+import io
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +31,7 @@ from .protocol import Protocol
 from .mechanics.fields import write_vtu
 from .mechanics.sensitivity import DirectSensitivity
 from .mechanics.sensitivity import check_differentiable
+from .runtime.json_io import jsonable
 
 #: Dimensionless contact penalty: epsilon = PENALTY * E / sqrt(R h_max) (kPa/mm),
 #: i.e. ~1e3 E / s0 on the medium mesh. Keeps the penetration below 0.07% of the
@@ -93,14 +96,50 @@ class ForceDepthCurve:
     time_s: np.ndarray | None = None
     sensitivities: dict | None = None
 
-    def to_csv(self, path: str | Path) -> Path:
-        """Write ``depth_mm,force_mN`` (with ``time_s`` first when known) to ``path``."""
+    def model_description(self) -> dict:
+        """What was simulated: the law, its parameters, the sphere radius and the mesh (JSON-safe)."""
+        material = self.material
+        return jsonable({"material": getattr(material, "name", type(material).__name__),
+                         "law": type(material).__name__, "parameters": material.parameters(),
+                         "radius_mm": self.indenter.radius_mm, "mesh": self.mesh_name})
+
+    def to_csv(self, path: str | Path, provenance: dict | None = None) -> Path:
+        """Write ``depth_mm,force_mN`` (with ``time_s`` first when known) to ``path``, atomically.
+
+        Parameters
+        ----------
+        path : str or Path
+        provenance : dict, optional
+            :func:`skin_indent.runtime.provenance.provenance` of the run (the CLI's records
+            the command line and every option); default a record of this API call.
+
+        Returns
+        -------
+        Path
+
+        Notes
+        -----
+        ``#`` comment lines before the header hold the provenance, the model
+        (``# model: {"material", "law", "parameters", "radius_mm", "mesh"}``) and the
+        sphere radius as :func:`skin_indent.measurement.load_csv` reads it
+        (``# radius_mm: R``): the file loads back as a measurement with its radius.
+        """
+        from .runtime.atomic import atomic_write
+        from .runtime.provenance import provenance as make_provenance, provenance_comment_lines
+
         path = Path(path)
+        model = self.model_description()
+        if provenance is None:
+            provenance = make_provenance(settings=model, api="skin_indent.ForceDepthCurve.to_csv")
         columns, header = [self.depth_mm, self.force_mN], "depth_mm,force_mN"
         if self.time_s is not None:
             columns, header = [self.time_s] + columns, "time_s," + header
-        np.savetxt(path, np.column_stack(columns), delimiter=",", header=header, comments="", fmt="%.10g")
-        return path
+        buf = io.StringIO()
+        np.savetxt(buf, np.column_stack(columns), delimiter=",", header=header, comments="", fmt="%.10g")
+        lines = [*provenance_comment_lines(provenance), f"# model: {json.dumps(model, sort_keys=True)}",
+                 f"# radius_mm: {self.indenter.radius_mm!r}"]
+        text = "\n".join(lines) + "\n" + buf.getvalue()
+        return atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
 
     def write_vtu(self, path: str | Path) -> Path:
         """Write the deformed mesh and fields at the deepest depth (needs ``keep_state=True``)."""

@@ -70,6 +70,7 @@ from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggest
 from ..inverse.residuals import effective_sample_size
 from ..runtime.context import context_of
 from ..runtime.json_io import jsonable
+from ..runtime.provenance import records_call
 
 log = logging.getLogger(__name__)
 
@@ -186,6 +187,9 @@ class Diagnosis:
     predictions: list = field(default_factory=list, repr=False)
     #: the candidate effects examined (None: every registered effect)
     candidates: tuple | None = None
+    #: how the diagnosis was made (:func:`skin_indent.runtime.provenance.provenance`): the API call
+    #: of :func:`diagnose`, its arguments and the curve's data digest
+    provenance: dict = field(default_factory=dict, repr=False)
 
     @property
     def current(self) -> Rung:
@@ -388,6 +392,7 @@ class Diagnosis:
             "sentence": self.sentence(),
             "ladder": [rung(f) for f in self.ladder],
             "notes": list(self.notes),
+            "provenance": dict(self.provenance),
         })
 
 
@@ -633,6 +638,8 @@ def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
     return std, source, reasons, predictions
 
 
+@records_call("skin_indent.diagnose", data="measurement",
+              leave_out=("context", "cache_dir", "workers", "client", "scheduler", "progress"))
 def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, add=(), noise_mN: float | None = None,
              segments=SEGMENTS, max_rungs: int = 3, in_loop: bool = True, context=None, mesh: str = "coarse",
              **build) -> Diagnosis:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..inverse import IdentificationResult
-from ..runtime.provenance import surface_identity
+from ..runtime.provenance import records_call, surface_identity
 from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, check_fixed, check_modulus_range, hertz_modulus,
                              run_method, start_values)
 from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
@@ -71,6 +71,9 @@ class CurveFit(IdentificationResult):
     error_model : dict
         How the chi-square and BIC weigh each point (``fit(model=...)``: noise and model error in
         quadrature; empty for the half-space fit of the paper's path, weighed by the noise alone).
+    provenance : dict
+        How the fit was made (:func:`skin_indent.runtime.provenance.provenance`): by
+        :func:`fit`, its ``api`` call, the arguments given and the curve's data digest.
     """
 
     prepared: object = None
@@ -87,6 +90,7 @@ class CurveFit(IdentificationResult):
     model: str = "neo-hooke"
     priors: dict = field(default_factory=dict)
     error_model: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict, repr=False)
 
     @property
     def trusted(self) -> bool:
@@ -137,6 +141,7 @@ class CurveFit(IdentificationResult):
             "model": self.model,
             "priors": dict(self.priors),
             "error_model": dict(self.error_model),
+            "provenance": dict(self.provenance),
         })
         return jsonable(out)
 
@@ -252,6 +257,7 @@ def _independent_noise(prepared) -> tuple[float, str] | None:
         return None
 
 
+@records_call("skin_indent.fit")
 def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = "auto", fixed: dict | None = None,
         radius_mm: float | None = None, x0=None, tol: float | None = None, noise_mN: float | None = None,
         context=None, mesh: str | None = None, model=None, priors: dict | None = None, free=(),

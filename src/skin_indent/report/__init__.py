@@ -3,11 +3,13 @@
 - :mod:`.paper`: figures of the paper's identification (fits, residuals, filter histories);
 - :mod:`.fit_figure`: the figure and CSV of one fitted curve;
 - :mod:`.batch_table`: the table of a batch of fits and its summary figure;
-- :mod:`.diagnosis_page`: the figures and HTML page of a diagnosis.
+- :mod:`.diagnosis_page`: the figures and HTML page of a diagnosis;
+- :func:`save_figure`: every PNG, with its provenance in its metadata.
 """
 
 from .batch_table import summary_figure, write_tsv
 from .diagnosis_page import write_report
-from .fit_figure import fit_arrays, write_fit_csv
+from .fit_figure import fit_arrays, plot_fit, write_fit_csv
+from ._save import save_figure
 
-__all__ = ["fit_arrays", "summary_figure", "write_fit_csv", "write_report", "write_tsv"]
+__all__ = ["fit_arrays", "plot_fit", "save_figure", "summary_figure", "write_fit_csv", "write_report", "write_tsv"]

@@ -18,6 +18,7 @@ from ..fitting import MISFIT_LIMIT
 from ..measurement.scale import display_units
 from ..runtime.atomic import atomic_write
 from ..runtime.provenance import provenance_comment_lines
+from ._save import save_figure
 
 __all__ = ["UNITS_LINE", "row_line", "summary_figure", "write_tsv"]
 
@@ -202,6 +203,4 @@ def summary_figure(rows, path, *, title: str | None = None) -> Path:
         ax.set_ylabel("y (um)")
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(Path(name).name, fontsize=9)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    return atomic_write(path, lambda fh: fh.write(buf.getvalue()))
+    return save_figure(fig, path, getattr(rows, "provenance", None))

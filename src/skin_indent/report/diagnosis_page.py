@@ -23,6 +23,8 @@ import numpy as np
 
 from ..runtime.atomic import atomic_write
 from ..diagnosis.workflow import FROM_FE
+from ..runtime.json_io import dumps
+from ._save import save_figure
 
 FIGURES = ("fit.png", "residuals.png", "ladder.png")
 
@@ -38,12 +40,9 @@ def _models(diag):
     return out
 
 
-def _save(fig, path: Path) -> None:
-    atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110))
-
-
-def figures(diag, out_dir) -> list[Path]:
-    """Write the three PNG figures into ``out_dir``; returns their paths."""
+def figures(diag, out_dir, provenance: dict | None = None) -> list[Path]:
+    """Write the three PNG figures into ``out_dir``, each with ``provenance`` (default the
+    diagnosis's own) in its metadata (:func:`skin_indent.report.save_figure`); returns their paths."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -51,6 +50,7 @@ def figures(diag, out_dir) -> list[Path]:
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    prov = provenance or getattr(diag, "provenance", None)
     d = diag.data
     models = _models(diag)
     paths = []
@@ -65,7 +65,7 @@ def figures(diag, out_dir) -> list[Path]:
     ax.legend(fontsize=8)
     fig.tight_layout()
     paths.append(out / FIGURES[0])
-    _save(fig, paths[-1])
+    save_figure(fig, paths[-1], prov)
     plt.close(fig)
 
     timed = d.time_s is not None
@@ -89,7 +89,7 @@ def figures(diag, out_dir) -> list[Path]:
     axes[0][0].legend(fontsize=7, loc="best")
     fig.tight_layout()
     paths.append(out / FIGURES[1])
-    _save(fig, paths[-1])
+    save_figure(fig, paths[-1], prov)
     plt.close(fig)
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6))
@@ -105,7 +105,7 @@ def figures(diag, out_dir) -> list[Path]:
         a.tick_params(axis="x", rotation=30, labelsize=7)
     fig.tight_layout()
     paths.append(out / FIGURES[2])
-    _save(fig, paths[-1])
+    save_figure(fig, paths[-1], prov)
     plt.close(fig)
     return paths
 
@@ -120,10 +120,45 @@ def _fmt(v) -> str:
     return html.escape(str(v))
 
 
-def write_report(diag, out_dir) -> Path:
-    """Write the PNG figures and ``index.html`` (figures embedded) into ``out_dir``; returns the page."""
+def _provenance_block(prov) -> str:
+    """The provenance as a readable table, and as JSON in ``<script id="provenance">``."""
+    if not prov:
+        return ""
+    libs = ", ".join(f"{k} {v}" for k, v in (prov.get("libraries") or {}).items())
+    made = prov.get("api") or " ".join(map(str, prov.get("command") or ()))
+    inputs = "<br>".join(
+        html.escape(f"{i.get('path', i.get('source', ''))}: sha256 {i.get('sha256', i.get('data_sha256', '-'))}"
+                    + (f" ({i['bytes']} bytes)" if "bytes" in i else "") + (f" ({i['error']})" if "error" in i else ""))
+        for i in prov.get("inputs") or ())
+    settings = ", ".join(f"{k} = {dumps(v)}" for k, v in (prov.get("settings") or {}).items())
+    surface = prov.get("surface")
+    surfaces = surface if isinstance(surface, list) else [surface] if surface else []
+    cells = [("skin_indent", f"{prov.get('skin_indent')} (Python {prov.get('python')}; {libs})"),
+             ("made by", made), ("at (UTC)", prov.get("time_utc", "")), ("inputs", None), ("settings", settings),
+             ("surfaces", ", ".join(str(s.get("hash", ""))[:12] for s in surfaces if isinstance(s, dict)) or "-")]
+    rows = "".join(f"<tr><th>{k}</th><td>{inputs or '-' if v is None else html.escape(str(v))}</td></tr>"
+                   for k, v in cells)
+    record = dumps(prov, sort_keys=True).replace("</", "<\\/")
+    return (f'<h2>Provenance</h2>\n<table id="provenance-table">{rows}</table>\n'
+            f'<script type="application/json" id="provenance">{record}</script>\n')
+
+
+def write_report(diag, out_dir, provenance: dict | None = None) -> Path:
+    """Write the PNG figures and ``index.html`` (figures embedded) into ``out_dir``; returns the page.
+
+    Parameters
+    ----------
+    diag : Diagnosis
+    out_dir : path
+    provenance : dict, optional
+        How the diagnosis was made (:func:`skin_indent.runtime.provenance.provenance`);
+        default the diagnosis's own (``diag.provenance``, the API call). The page shows it
+        in a table and holds it as JSON (``<script type="application/json"
+        id="provenance">``); each PNG holds it in its metadata.
+    """
     out = Path(out_dir)
-    paths = figures(diag, out)
+    prov = provenance or getattr(diag, "provenance", None)
+    paths = figures(diag, out, prov)
     imgs = "\n".join(
         f'<figure><img alt="{p.stem}" src="data:image/png;base64,{base64.b64encode(p.read_bytes()).decode()}">'
         f"<figcaption>{p.name}</figcaption></figure>" for p in paths)
@@ -159,7 +194,7 @@ img{{max-width:100%}}.verdict{{font-size:1.1em;background:#eef;padding:0.8em}}.p
 {fe_note}<h2>Not detectable here</h2><ul>{nd or '<li>-</li>'}</ul>
 <h2>Figures</h2>
 {imgs}
-</body></html>
+{_provenance_block(prov)}</body></html>
 """
     index = out / "index.html"
     atomic_write(index, lambda fh: fh.write(page.encode()))

@@ -17,7 +17,6 @@ so plot, table and fit agree to the last digit. matplotlib is used without pyplo
 
 from __future__ import annotations
 
-import io
 import textwrap
 from pathlib import Path
 
@@ -25,6 +24,7 @@ import numpy as np
 from ..measurement.scale import display_units
 from ..runtime.atomic import atomic_write
 from ..runtime.provenance import provenance_comment_lines
+from ._save import save_figure
 
 __all__ = ["fit_arrays", "plot_fit", "write_fit_csv"]
 
@@ -71,7 +71,7 @@ def _hertz_mN(curve_fit, depth_mm) -> np.ndarray | None:
     return 4.0 / 3.0 * e_star * np.sqrt(curve_fit.radius_mm) * d**1.5  # kPa mm^2 = mN
 
 
-def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Path:
+def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110, provenance: dict | None = None) -> Path:
     """Write a PNG of a fit: data, model and residuals against depth.
 
     Top: the approach as recorded (baseline removed, light), the fitted points, the
@@ -91,6 +91,9 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Pa
     title : str, optional
         Default: the source, E, nu and the quality verdict.
     dpi : int
+    provenance : dict, optional
+        Recorded in the PNG's metadata (:func:`skin_indent.report.save_figure`); default
+        the fit's own (``curve_fit.provenance``: the API call that made it).
 
     Returns
     -------
@@ -144,9 +147,7 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110) -> Pa
         bottom.legend(fontsize=8, loc="upper left")
     bottom.set_ylabel(f"residual ({fname})")
     bottom.set_xlabel(f"recorded depth ({dname})")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    return atomic_write(path, lambda fh: fh.write(buf.getvalue()))
+    return save_figure(fig, path, provenance or getattr(curve_fit, "provenance", None), dpi=dpi)
 
 
 def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
@@ -159,7 +160,8 @@ def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
     path : path
         The CSV (written atomically, mode 0644 under the usual umask).
     provenance : dict, optional
-        :func:`skin_indent.runtime.provenance.provenance`, written as ``#`` comment lines.
+        :func:`skin_indent.runtime.provenance.provenance`, written as ``#`` comment lines;
+        default the fit's own (``curve_fit.provenance``: the API call that made it).
 
     Returns
     -------
@@ -174,6 +176,7 @@ def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
     :func:`skin_indent.measurement.load_csv` reads the file back as a curve with its radius.
     """
     a = fit_arrays(curve_fit)
+    provenance = provenance or getattr(curve_fit, "provenance", None)
     lines = provenance_comment_lines(provenance) if provenance else []
     lines += [f"# radius_mm: {curve_fit.radius_mm:.10g}",
               f"# fit: E_kPa {curve_fit.parameters['E_kPa']:.10g}, nu {curve_fit.parameters['nu']:.10g}, "
