@@ -523,7 +523,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
 
         prepared = prepare_curve(measurement, radius_mm=args.radius)
     else:
-        prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"))
+        prepared = prepare(measurement, window=window, contact=args.contact, contact_mm=fixed.get("offset_mm"),
+                           radius_mm=args.radius)
     path = args.data[0]
     if not args.json:
         from .measurement.scale import display_units
