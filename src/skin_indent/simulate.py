@@ -32,6 +32,8 @@ from .mechanics.fields import write_vtu
 from .mechanics.sensitivity import DirectSensitivity
 from .mechanics.sensitivity import check_differentiable
 from .runtime.json_io import jsonable
+from .runtime.atomic import atomic_write
+from .runtime.provenance import provenance as make_provenance, provenance_comment_lines
 
 #: Dimensionless contact penalty: epsilon = PENALTY * E / sqrt(R h_max) (kPa/mm),
 #: i.e. ~1e3 E / s0 on the medium mesh. Keeps the penetration below 0.07% of the
@@ -124,9 +126,6 @@ class ForceDepthCurve:
         sphere radius as :func:`skin_indent.measurement.load_csv` reads it
         (``# radius_mm: R``): the file loads back as a measurement with its radius.
         """
-        from .runtime.atomic import atomic_write
-        from .runtime.provenance import provenance as make_provenance, provenance_comment_lines
-
         path = Path(path)
         model = self.model_description()
         if provenance is None:

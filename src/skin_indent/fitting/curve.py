@@ -24,6 +24,7 @@ from ..effects import CONTACT_POINT
 from ..inverse.residuals import analyse_residuals
 from ..measurement import PreparedCurve, prepare
 from ..measurement.scale import afm_scale, display_units
+from ..measurement.preparation import SKIN_RADIUS_MM
 from .scale_checks import check_points, scale_flags
 from ..models import ComposedModel, HertzModel
 from ..runtime.json_io import jsonable
@@ -382,8 +383,6 @@ NU_DEFAULT_NOTE = ("nu = 0.5 held, the default at AFM scale (sphere radius < 0.5
 
 def _radius_of(data, radius_mm) -> float:
     """The sphere radius a fit of ``data`` uses (mm): given, the curve's, else the skin default."""
-    from ..measurement.preparation import SKIN_RADIUS_MM
-
     for r in (radius_mm, getattr(data, "radius_mm", None)):
         if r is not None:
             try:

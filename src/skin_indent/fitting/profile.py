@@ -40,6 +40,11 @@ import sys
 from collections.abc import Mapping
 from pathlib import Path
 
+from .. import __version__
+from ..runtime.atomic import atomic_write
+from ..runtime.json_io import dumps
+from ..runtime.provenance import read_provenance, record_in
+
 __all__ = ["PROFILE_KEYS", "profile_from_settings", "read_profile", "write_profile"]
 
 #: the keys of a profile (the options of ``skin-indent fit`` without dashes)
@@ -163,8 +168,6 @@ def profile_from_settings(settings: Mapping) -> dict:
 
 def _settings_of(obj, name: str) -> Mapping:
     """The settings a parsed profile file holds: itself, or the ``settings`` of a provenance record."""
-    from ..runtime.provenance import record_in
-
     record = record_in(obj) if isinstance(obj, Mapping) else {}
     if record:
         if not isinstance(record.get("settings"), Mapping):
@@ -193,8 +196,6 @@ def read_profile(path) -> dict:
         One line naming the file: missing or unreadable, not JSON/TOML, TOML without
         :mod:`tomllib`, no provenance header, an unknown key or a bad value.
     """
-    from ..runtime.provenance import read_provenance
-
     p = Path(os.fspath(path))
     name = f"profile {p}"
     try:
@@ -260,10 +261,6 @@ def write_profile(profile: Mapping, path) -> Path:
     -------
     Path
     """
-    from .. import __version__
-    from ..runtime.atomic import atomic_write
-    from ..runtime.json_io import dumps
-
     prof = profile_from_settings(profile)
     p = Path(os.fspath(path))
     if p.suffix.lower() == ".toml":

@@ -40,6 +40,7 @@ from ..response_surface import ResponseSurface
 from ..response_surface import RunStore
 from ..response_surface import resolve_model, run_key, run_task
 from ..runtime.executors import make_executor
+from ..runtime.log import progress_bar
 
 log = logging.getLogger(__name__)
 
@@ -140,8 +141,6 @@ class EffectSurface:
             A tqdm bar over all runs (default None: only when stderr is a terminal).
         """
         from pathlib import Path
-
-        from ..runtime.log import progress_bar
 
         effects = tuple(effects)
         cache_dir = Path(default_cache_dir() if cache_dir is None else cache_dir)
