@@ -121,7 +121,7 @@ def _figure(data, surface, results, noise, path):
     models = {m: surface.force(d, np.array([r.parameters["E_kPa"], r.parameters["nu"]])) for m, r in results.items()}
     fig = plt.figure(figsize=(12, 8), layout="constrained")
     grid = fig.add_gridspec(3, 2)
-    plot_fit(d, F, {f"{m}: E={r.parameters['E_kPa']:.2f} kPa, nu={r.parameters['nu']:.3f}": models[m]
+    plot_fit(d, F, {f"{m}: E = {r.parameters['E_kPa']:.2f} kPa, ν = {r.parameters['nu']:.3f}": models[m]
                     for m, r in results.items()}, ax=fig.add_subplot(grid[0:2, 0]),
              title="forearm-like curve vs homogeneous neo-Hookean half-space")
     plot_residuals(d, {m: F - models[m] for m in results}, noise, ax=fig.add_subplot(grid[2, 0]))
