@@ -147,7 +147,8 @@ def fit_figure(curve_fit, *, title: str | None = None):
     if noise:
         for s in (-2, 2):
             bottom.axhline(s * noise * fk, color="0.5", lw=0.8, ls="--")
-        bottom.plot([], [], color="0.5", ls="--", label=f"+-2 noise ({q.get('misfit', float('nan')):.2g} x noise RMS)")
+        bottom.plot([], [], color="0.5", ls="--",
+                    label=f"noise: ±2 sd (misfit RMS {q.get('misfit', float('nan')):.2g} x noise)")
         bottom.legend(fontsize=8, loc="upper left")
     bottom.set_ylabel(f"residual ({fname})")
     bottom.set_xlabel(f"recorded depth ({dname})")
