@@ -6,6 +6,10 @@ Build (from the root of a clone, with the ``docs`` extra installed)::
 
 This runs the gallery scripts in ``examples/`` (about a minute on the coarse meshes
 they use). ``-D plot_gallery=0`` builds the pages without running them.
+
+The build needs no network: there is no intersphinx, and MathJax is served from the
+build's own ``_static/mathjax`` (sphinx-mathjax-offline), so the formulas render in a
+browser that is offline too.
 """
 
 from __future__ import annotations
@@ -30,9 +34,11 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # MathJax copied into _static/mathjax: the formulas render offline
     "sphinx.ext.viewcode",
     "numpydoc",
     "sphinx_gallery.gen_gallery",
+    "sphinxarg.ext",  # the command-line reference (cli.rst), generated from skin_indent.cli.build_parser
 ]
 
 exclude_patterns = ["_build", "README.md", "gallery/*.ipynb", "gallery/*.py", "gallery/*.zip",

@@ -152,7 +152,7 @@ d, F = data.depth_mm, data.force_mN
 models = {m: surface.force(d, (r.parameters["E_kPa"], r.parameters["nu"])) for m, r in results.items()}
 fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(7, 6), layout="constrained",
                                gridspec_kw={"height_ratios": [2, 1]})
-plot_fit(d, F, {f"{m}: E = {r.parameters['E_kPa']:.2f} kPa, nu = {r.parameters['nu']:.3f}": models[m]
+plot_fit(d, F, {f"{m}: E = {r.parameters['E_kPa']:.2f} kPa, ν = {r.parameters['nu']:.3f}": models[m]
                 for m, r in results.items()}, ax=ax1, title="forearm-like curve and homogeneous half-space fits")
 plot_residuals(d, {m: F - models[m] for m in results}, noise, ax=ax2)
 print(f"least-squares misfit {lsq.rms_mN:.3f} mN RMS, {lsq.rms_mN / noise:.1f} times the noise; "

@@ -42,6 +42,16 @@ def test_completion_lists_the_main_names_and_the_effects_keep_their_names():
     assert si.MaterialLayer is Layer and si.ViscoelasticMaterial is Viscoelastic
 
 
+@pytest.mark.parametrize("sub", ["measurement", "mechanics", "effects", "response_surface", "models", "inverse",
+                                 "fitting", "diagnosis", "report", "runtime", "data"])
+def test_completion_of_each_subpackage_lists_its_public_names(sub):
+    """``dir()`` of a subpackage lists all of ``__all__``, the names loaded on first use too."""
+    import importlib
+
+    module = importlib.import_module(f"skin_indent.{sub}")
+    assert module.__all__ and not [n for n in module.__all__ if n not in dir(module)]
+
+
 def _afm_curve(radius_mm=0.02, E=2.0, nu=0.45, noise=2e-7, seed=1):
     """A curve recorded from before contact at AFM scale (R = 20 um): flat baseline, then contact."""
     h_max = 0.25 * radius_mm

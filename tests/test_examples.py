@@ -22,6 +22,7 @@ tests/test_diagnose.py uses, built once per run by the ``diagnosis_surfaces`` fi
 from __future__ import annotations
 
 import importlib.util
+import re
 import runpy
 import subprocess
 import sys
@@ -134,9 +135,19 @@ def test_docs_build(tmp_path):
     """The documented build with warnings as errors, without re-running the gallery scripts."""
     proc = _sphinx_build(tmp_path, "-D", "plot_gallery=0")
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-5000:]
-    for page in ("index.html", "theory.html", "api.html", "gallery/index.html",
+    html = tmp_path / "html"
+    for page in ("index.html", "theory.html", "api.html", "cli.html", "gallery/index.html",
                  "gallery/ex05_invivo_identifiability.html"):
-        assert (tmp_path / "html" / page).is_file(), page
+        assert (html / page).is_file(), page
+    # the CLI reference is generated from the parser: every command and its options
+    cli = (html / "cli.html").read_text()
+    for text in ("demo", "simulate", "surface", "build", "diagnose", "--model", "--fix", "--prior", "--report"):
+        assert text in cli, text
+    # MathJax is served from the build, not a CDN: the formulas render offline
+    theory = (html / "theory.html").read_text()
+    scripts = re.findall(r'<script[^>]*src="([^"]*mathjax[^"]*)"', theory, flags=re.I)
+    assert scripts and all("://" not in s for s in scripts), scripts
+    assert all((html / s.split("?")[0]).is_file() for s in scripts), scripts
 
 
 @pytest.mark.slow

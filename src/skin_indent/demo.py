@@ -27,7 +27,7 @@ from .diagnosis import diagnose
 from .report import write_report
 from .fitting import PAPER_TOLERANCE, identify, surface_for
 from .measurement import load_csv, prepare
-from .report._save import save_figure
+from .report import save_figure
 from .runtime.atomic import atomic_write
 from .runtime.json_io import dumps
 from .runtime.provenance import provenance, with_provenance
@@ -141,26 +141,48 @@ def write_summary(path, summary: dict, prov: dict) -> Path:
     return atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
 
 
-def _figure(data, surface, results, noise, path, prov=None):
-    import matplotlib
+def demo_figure(data, surface, results: dict, noise_mN: float):
+    """The demo's figure: the fits of every method, their residuals and the paper's filter histories.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Left: the measurement and each method's fitted curve (each its own line style and
+    markers, so that methods which agree stay visible, the legend saying which are the
+    same curve), and below the residuals with the noise bands (±1 and ±2 standard
+    deviations). Right: E after each update of the paper's filter's first pass, and E
+    and ν after each of its sweeps (its global stabilisation).
+
+    Parameters
+    ----------
+    data : Measurement
+        The fitted points (depth in mm, force in mN).
+    surface : ResponseSurface
+    results : dict
+        ``method -> IdentificationResult``, with ``"ekf-paper"`` among them.
+    noise_mN : float
+        Noise standard deviation (mN).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
 
     from .report.paper import plot_first_pass, plot_fit, plot_residuals, plot_sweep_history
 
     d, F = data.depth_mm, data.force_mN
     models = {m: surface.force(d, np.array([r.parameters["E_kPa"], r.parameters["nu"]])) for m, r in results.items()}
-    fig = plt.figure(figsize=(12, 8), layout="constrained")
+    fig = Figure(figsize=(12, 8), layout="constrained")
     grid = fig.add_gridspec(3, 2)
-    plot_fit(d, F, {f"{m}: E={r.parameters['E_kPa']:.2f} kPa, nu={r.parameters['nu']:.3f}": models[m]
+    plot_fit(d, F, {f"{m}: E = {r.parameters['E_kPa']:.2f} kPa, ν = {r.parameters['nu']:.3f}": models[m]
                     for m, r in results.items()}, ax=fig.add_subplot(grid[0:2, 0]),
              title="forearm-like curve vs homogeneous neo-Hookean half-space")
-    plot_residuals(d, {m: F - models[m] for m in results}, noise, ax=fig.add_subplot(grid[2, 0]))
+    plot_residuals(d, {m: F - models[m] for m in results}, noise_mN, ax=fig.add_subplot(grid[2, 0]))
     paper = results["ekf-paper"]
     plot_first_pass(paper, d, axes=[fig.add_subplot(grid[0, 1])])
     ax_e = fig.add_subplot(grid[1, 1])
     ax_nu = fig.add_subplot(grid[2, 1], sharex=ax_e)
     plot_sweep_history(paper, axes=[ax_e, ax_nu])
-    save_figure(fig, path, prov, dpi=110)
-    plt.close(fig)
+    return fig
+
+
+def _figure(data, surface, results, noise, path, prov=None):
+    save_figure(demo_figure(data, surface, results, noise), path, prov, dpi=110)

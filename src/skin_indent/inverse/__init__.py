@@ -49,6 +49,11 @@ __all__ = [
 _LAZY = {"run_blind_tests", "format_table", "blind_test_cases", "PAPER_TABLE_1", "PAPER_TABLE_2"}
 
 
+def __dir__():
+    """Every name of ``__all__``, the lazy ones too: what completion offers after ``inverse.``."""
+    return sorted({*globals(), *__all__})
+
+
 def __getattr__(name):
     # blind_tests is also a script (python -m skin_indent.inverse.blind_tests): import it lazily
     # so that running it does not find it pre-imported.

@@ -19,6 +19,11 @@ _EXPORTS = {
 __all__ = list(_EXPORTS)
 
 
+def __dir__():
+    """The exports (loaded on first use) and what is loaded: what completion offers after ``mechanics.``."""
+    return sorted({*globals(), *__all__})
+
+
 def __getattr__(name):
     if name in _EXPORTS:
         import importlib

@@ -64,6 +64,14 @@ def _cell(value) -> str:
     return " ".join(str(value).replace("\t", " ").split())
 
 
+def _middle_ellipsis(text: str, width: int) -> str:
+    """``text`` cut in its middle to at most ``width`` characters (file names have no spaces to wrap at)."""
+    if len(text) <= width:
+        return text
+    head = (width - 3) // 2
+    return text[:head] + "..." + text[len(text) - (width - 3 - head):]
+
+
 def _columns(rows) -> tuple:
     """The table columns of rows of one dataclass (:class:`skin_indent.batch.BatchRow`)."""
     import dataclasses
@@ -137,8 +145,6 @@ def summary_figure(rows, path, *, title: str | None = None) -> Path:
     orange, flagged curves in red, curves that failed as a grey cross at the bottom. Right (one panel
     per force-map file with map positions): the map points coloured by log10 E.
     """
-    import io
-
     from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
 
     rows = list(rows)
@@ -181,8 +187,8 @@ def summary_figure(rows, path, *, title: str | None = None) -> Path:
     ax.set_xticks(x, [r.short_label() for r in rows], rotation=60 if len(rows) > 3 else 0, ha="right" if len(rows) > 3
                   else "center", fontsize=8 if len(rows) < 30 else 5)
     ax.set_ylabel("E (kPa)")
-    ax.set_title(title or f"E per curve ({len(rows)} curves: {int(failed.sum())} failed, {int(flagged.sum())} "
-                          f"flagged, {int(poor.sum())} with misfit > {MISFIT_LIMIT:g} x noise)", fontsize=10)
+    ax.set_title(title or f"E per curve\n{len(rows)} curves: {int(failed.sum())} failed, {int(flagged.sum())} "
+                          f"flagged, {int(poor.sum())} misfit > {MISFIT_LIMIT:g} x noise", fontsize=10)
     if len(rows):
         ax.legend(fontsize=8)
     for ax, (name, rs) in zip(axes[1:], list(maps.items())[:n_maps]):
@@ -202,5 +208,5 @@ def summary_figure(rows, path, *, title: str | None = None) -> Path:
         ax.set_xlabel("x (um)")
         ax.set_ylabel("y (um)")
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_title(Path(name).name, fontsize=9)
+        ax.set_title(f"E over the map\n{_middle_ellipsis(Path(name).name, 44)}", fontsize=9)
     return save_figure(fig, path, getattr(rows, "provenance", None))

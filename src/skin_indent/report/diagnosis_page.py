@@ -2,7 +2,7 @@
 
 :func:`write_report` writes ``fit.png`` (measurement and every fitted model),
 ``residuals.png`` (residual of each model against depth, and against time when the
-curve has one, with the +-2 sigma noise band), ``ladder.png`` (RMS and BIC of each
+curve has one, with the +-2 sd noise band), ``ladder.png`` (RMS and BIC of each
 rung and candidate) and ``index.html``, which embeds the three figures as base64 PNG
 so that the page reads offline in any browser, with the verdict, the parameter table
 and the ladder.
@@ -25,6 +25,7 @@ from ..runtime.atomic import atomic_write
 from ..diagnosis.workflow import FROM_FE
 from ..runtime.json_io import dumps
 from ._save import save_figure
+from .labels import line_styles, model_label, same_curve_as
 
 FIGURES = ("fit.png", "residuals.png", "ladder.png")
 
@@ -40,73 +41,118 @@ def _models(diag):
     return out
 
 
-def figures(diag, out_dir, provenance: dict | None = None) -> list[Path]:
-    """Write the three PNG figures into ``out_dir``, each with ``provenance`` (default the
-    diagnosis's own) in its metadata (:func:`skin_indent.report.save_figure`); returns their paths."""
-    import matplotlib
+def fit_figure(diag):
+    """The measurement and every fitted model against depth (``fit.png``).
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    Models are drawn in the order of :func:`_models` with their own line styles and
+    markers (the later ones dashed, dotted and thinner, on top), and a model whose curve
+    is the same as an earlier one's says so in the legend ("same curve as ...").
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    prov = provenance or getattr(diag, "provenance", None)
+    Parameters
+    ----------
+    diag : Diagnosis
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
+
     d = diag.data
     models = _models(diag)
-    paths = []
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig = Figure(figsize=(7, 4.5), layout="constrained")
+    ax = fig.subplots()
     ax.plot(d.depth_mm, d.force_mN, ".", ms=3, color="0.4", label="measurement")
-    for f in models:
-        ax.plot(d.depth_mm, f.prediction_mN, "-", lw=1.4, label=f"{f.model} (RMS {f.rms_mN:.3g} mN)")
+    names = [model_label(f.model) for f in models]
+    same = same_curve_as([f.prediction_mN for f in models], names)
+    for f, name, style in zip(models, names, line_styles(len(models), np.size(d.depth_mm))):
+        ax.plot(d.depth_mm, f.prediction_mN, **style,
+                label=f"{name} (RMS {f.rms_mN:.3g} mN)" + (f": same curve as {same[name]}" if name in same else ""))
     ax.set_xlabel("depth (mm)")
     ax.set_ylabel("force (mN)")
     ax.set_title(f"{Path(d.source).name}: verdict {diag.verdict}" + (" (provisional)" if diag.provisional else ""))
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    paths.append(out / FIGURES[0])
-    save_figure(fig, paths[-1], prov)
-    plt.close(fig)
+    return fig
 
+
+def residual_figure(diag):
+    """The residual of each model against depth (and time), with the +-2 sd noise band (``residuals.png``).
+
+    Parameters
+    ----------
+    diag : Diagnosis
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    d = diag.data
+    models = _models(diag)
     timed = d.time_s is not None
-    fig, axes = plt.subplots(len(models), 2 if timed else 1, figsize=(9 if timed else 7, 2.2 * len(models)),
-                             squeeze=False, sharex="col")
+    fig = Figure(figsize=(9 if timed else 7, 2.2 * len(models) + 0.4), layout="constrained")
+    axes = fig.subplots(len(models), 2 if timed else 1, squeeze=False, sharex="col")
     band = 2.0 * diag.noise_mN
     xs = [(d.depth_mm, "depth (mm)")] + ([(d.time_s, "time (s)")] if timed else [])
     for row, f in zip(axes, models):
         for ax, (x, label) in zip(row, xs):
-            ax.axhspan(-band, band, color="tab:green", alpha=0.15, lw=0)
+            ax.axhspan(-band, band, color="tab:green", alpha=0.15, lw=0, label="noise: ±2 sd")
             for kind, color in (("approach", "tab:blue"), ("hold", "tab:orange"), ("retract", "tab:red")):
                 sel = d.kind == kind
                 if np.any(sel):
                     ax.plot(x[sel], f.residual_mN[sel], ".", ms=3, color=color, label=kind)
             ax.axhline(0.0, color="k", lw=0.6)
             ax.set_ylabel("residual (mN)", fontsize=8)
-            ax.set_title(f"{f.model}: {'white' if f.white else 'structured'}", fontsize=9)
+            ax.set_title(f"{model_label(f.model)}: {'white' if f.white else 'structured'}", fontsize=9)
 
     for ax, (_, label) in zip(axes[-1], xs):
         ax.set_xlabel(label)
     axes[0][0].legend(fontsize=7, loc="best")
-    fig.tight_layout()
-    paths.append(out / FIGURES[1])
-    save_figure(fig, paths[-1], prov)
-    plt.close(fig)
+    return fig
 
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6))
-    names = [f.model.replace("neo-hooke", "NH") for f in models]
+
+def ladder_figure(diag):
+    """RMS and BIC of each model (``ladder.png``): the models by their names, BIC lower is better.
+
+    Parameters
+    ----------
+    diag : Diagnosis
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    models = _models(diag)
+    fig = Figure(figsize=(9, 4.2), layout="constrained")
+    a1, a2 = fig.subplots(1, 2)
+    names = [model_label(f.model).replace(" + ", "\n+ ") for f in models]  # one effect per line
     a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
     a1.axhline(diag.noise_mN, color="tab:green", ls="--", label="noise")
     a1.axhline(1.3 * diag.noise_mN, color="tab:green", ls=":", label="1.3 x noise")
     a1.set_ylabel("RMS residual (mN)")
+    a1.set_title("misfit: down to the noise is enough", fontsize=9)
     a1.legend(fontsize=8)
     a2.bar(names, [f.bic for f in models], color="tab:purple")
-    a2.set_ylabel("BIC")
+    a2.set_ylabel("BIC (lower is better)")
+    a2.set_title("evidence (BIC): lower is better", fontsize=9)
     for a in (a1, a2):
-        a.tick_params(axis="x", rotation=30, labelsize=7)
-    fig.tight_layout()
-    paths.append(out / FIGURES[2])
-    save_figure(fig, paths[-1], prov)
-    plt.close(fig)
+        a.tick_params(axis="x", labelsize=7)
+    return fig
+
+
+def figures(diag, out_dir, provenance: dict | None = None) -> list[Path]:
+    """Write the three PNG figures into ``out_dir``, each with ``provenance`` (default the
+    diagnosis's own) in its metadata (:func:`skin_indent.report.save_figure`); returns their paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    prov = provenance or getattr(diag, "provenance", None)
+    paths = []
+    for name, draw in zip(FIGURES, (fit_figure, residual_figure, ladder_figure)):
+        paths.append(out / name)
+        save_figure(draw(diag), paths[-1], prov)
     return paths
 
 

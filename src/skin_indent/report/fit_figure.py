@@ -3,8 +3,9 @@
 - :func:`fit_arrays`: the fitted points (recorded depth, force with the baseline
   removed), the model force at them and the residual, from a
   :class:`~skin_indent.fitting.CurveFit`;
-- :func:`plot_fit`: a PNG of the data, the model (and Hertz's fit of the same points),
-  the contact point and the fitted range, and the residuals against the noise;
+- :func:`fit_figure`: the figure of the data, the model (and Hertz's fit of the same
+  points), the contact point and the fitted range, and the residuals against the noise;
+  :func:`plot_fit` writes it as a PNG;
 - :func:`write_fit_csv`: a CSV of depth, force, model and residual with a provenance
   header.
 
@@ -25,8 +26,9 @@ from ..measurement.scale import display_units
 from ..runtime.atomic import atomic_write
 from ..runtime.provenance import provenance_comment_lines
 from ._save import save_figure
+from .labels import model_label
 
-__all__ = ["fit_arrays", "plot_fit", "write_fit_csv"]
+__all__ = ["fit_arrays", "fit_figure", "plot_fit", "write_fit_csv"]
 
 
 def fit_arrays(curve_fit) -> dict:
@@ -71,13 +73,14 @@ def _hertz_mN(curve_fit, depth_mm) -> np.ndarray | None:
     return 4.0 / 3.0 * e_star * np.sqrt(curve_fit.radius_mm) * d**1.5  # kPa mm^2 = mN
 
 
-def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110, provenance: dict | None = None) -> Path:
-    """Write a PNG of a fit: data, model and residuals against depth.
+def fit_figure(curve_fit, *, title: str | None = None):
+    """The figure of a fit: data, model and residuals against depth.
 
-    Top: the approach as recorded (baseline removed, light), the fitted points, the
-    model at them, Hertz's fit of the same points (dashed), the contact point (vertical
-    line) and the fitted depth range (shaded). Bottom: the residual with +-2 noise
-    levels (the noise independent of the model, ``curve_fit.quality``). Depth, force and
+    Top: the approach as recorded (light; "baseline removed" when a pre-contact
+    baseline was subtracted, "as recorded" otherwise), the fitted points, the model at
+    them, Hertz's fit of the same points (dashed), the contact point (vertical line)
+    and the fitted depth range (shaded). Bottom: the residual with +-2 noise levels
+    (the noise independent of the model, ``curve_fit.quality``). Depth, force and
     moduli are shown in the units of the curve's scale, as the text of the fit
     (:func:`skin_indent.measurement.scale.display_units`: um, nN and Pa for an AFM-scale
     sphere, mm, mN and kPa for skin).
@@ -86,18 +89,12 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110, prove
     ----------
     curve_fit : CurveFit
         From :func:`skin_indent.fitting.fit`.
-    path : path
-        The PNG (written atomically, mode 0644 under the usual umask).
     title : str, optional
-        Default: the source, E, nu and the quality verdict.
-    dpi : int
-    provenance : dict, optional
-        Recorded in the PNG's metadata (:func:`skin_indent.report.save_figure`); default
-        the fit's own (``curve_fit.provenance``: the API call that made it).
+        Default: the source, the sphere radius and the quality verdict.
 
     Returns
     -------
-    Path
+    matplotlib.figure.Figure
     """
     from matplotlib.figure import Figure
 
@@ -121,10 +118,10 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110, prove
     raw = "approach (baseline removed)" if p.baseline is not None else "approach as recorded"
     top.plot(raw_d * dk, raw_f * fk, ".", ms=1.5, color="0.75", label=raw)
     top.plot(a["depth_mm"] * dk, a["force_mN"] * fk, ".", ms=2.5, color="k", label="fitted points")
-    name = "neo-Hooke" if curve_fit.model == "neo-hooke" else curve_fit.model
+    name = model_label(curve_fit.model)
     top.plot(a["depth_mm"] * dk, a["model_mN"] * fk, "-", color="C0", lw=1.8,
              label=f"{name}: E = {curve_fit.parameters['E_kPa'] * u.per_kPa:.4g} {u.modulus}, "
-                   f"nu = {curve_fit.parameters['nu']:.3g}")
+                   f"ν = {curve_fit.parameters['nu']:.3g}")
     hertz = _hertz_mN(curve_fit, a["depth_mm"])
     if hertz is not None:
         top.plot(a["depth_mm"] * dk, hertz * fk, "--", color="C2", lw=1,
@@ -143,10 +140,35 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110, prove
     if noise:
         for s in (-2, 2):
             bottom.axhline(s * noise * fk, color="0.5", lw=0.8, ls="--")
-        bottom.plot([], [], color="0.5", ls="--", label=f"+-2 noise ({q.get('misfit', float('nan')):.2g} x noise RMS)")
+        bottom.plot([], [], color="0.5", ls="--",
+                    label=f"noise: ±2 sd (misfit RMS {q.get('misfit', float('nan')):.2g} x noise)")
         bottom.legend(fontsize=8, loc="upper left")
     bottom.set_ylabel(f"residual ({fname})")
     bottom.set_xlabel(f"recorded depth ({dname})")
+    return fig
+
+
+def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110, provenance: dict | None = None) -> Path:
+    """Write a PNG of a fit: data, model and residuals against depth (:func:`fit_figure`).
+
+    Parameters
+    ----------
+    curve_fit : CurveFit
+        From :func:`skin_indent.fitting.fit`.
+    path : path
+        The PNG (written atomically, mode 0644 under the usual umask).
+    title : str, optional
+        Default: the source, the sphere radius and the quality verdict.
+    dpi : int
+    provenance : dict, optional
+        Recorded in the PNG's metadata (:func:`skin_indent.report.save_figure`); default
+        the fit's own (``curve_fit.provenance``: the API call that made it).
+
+    Returns
+    -------
+    Path
+    """
+    fig = fit_figure(curve_fit, title=title)
     return save_figure(fig, path, provenance or getattr(curve_fit, "provenance", None), dpi=dpi)
 
 
