@@ -234,3 +234,5 @@ def test_a_load_unload_fit_of_a_chosen_model_is_plotted_and_tabulated_whole(hidd
     write_fit_csv(r, tmp_path / "fit.csv", {"version": "test"})
     back = load_csv(tmp_path / "fit.csv")
     assert back.n_points == 200
+
+

@@ -189,40 +189,9 @@ class Fitter:
                 "sigma": "sqrt(noise^2 + (model_error * F)^2)"}
 
     def held(self, model) -> dict:
-        """The fixed values of the parameters ``model`` has, as its fit coordinates ``{name: value}``.
-
-        A name the model fits directly (``E_kPa``, ``nu``, ``thickness_mm``, ``offset_mm``) is held
-        as it is; a reported parameter that is a one-to-one function of one fit coordinate
-        (``ratio`` = 1 / ``compliance``) is held through that coordinate. A parameter that
-        depends on several fit coordinates (``C20_kPa`` = ``C20_over_E`` E with E free) cannot be
-        held this way: ``ValueError`` saying what to hold instead.
-        """
-        names = model.parameter_names
-        lo, hi = model.bounds
-        out = {k: v for k, v in self.fixed.items() if k in names}
-        rest = {k: v for k, v in self.fixed.items() if k not in names}
-        if not rest:
-            return out
-        x = np.array([out.get(n, min(max(1.0, lo[i]), hi[i]) if not math.isfinite(hi[i] - lo[i])
-                                 else 0.5 * (lo[i] + hi[i])) for i, n in enumerate(names)])
-        reported = model.model_parameters(x)
-        for k, value in rest.items():
-            if k not in reported:
-                continue  # a parameter of other models (a thickness when no layer is fitted)
-            moves = []
-            for j, n in enumerate(names):
-                y = x.copy()
-                y[j] = x[j] * 1.01 + 1e-3 if math.isfinite(x[j]) else x[j]
-                y[j] = min(max(y[j], lo[j]), hi[j])
-                if model.model_parameters(y)[k] != reported[k]:
-                    moves.append(j)
-            free = [j for j in moves if names[j] not in out]
-            if len(moves) != 1 or len(free) != 1:
-                raise ValueError(f"{k} cannot be held on its own in {model.name}: it depends on "
-                                 f"{', '.join(names[j] for j in moves)}; hold those instead")
-            j = free[0]
-            out[names[j]] = solve_coordinate(model, x, j, k, value)
-        return out
+        """The fixed values of the parameters ``model`` has, as its fit coordinates ``{name: value}``
+        (:func:`held_coordinates`)."""
+        return held_coordinates(model, self.fixed)
 
     def prior_terms(self, model) -> list:
         """The priors on parameters of ``model``, as :func:`~skin_indent.inverse.fit_least_squares`
@@ -289,21 +258,37 @@ class Fitter:
         return best
 
     def starts(self, model, effects: tuple) -> list[np.ndarray]:
-        """Start vectors (:meth:`_starts`) with the held values in place, each once."""
+        """Start vectors (:meth:`_starts`) with the held values in place, each once; with priors,
+        each start also once more with the priors' means in place (after all of them), so that
+        the fit can start where what the user knows puts it."""
         held = self.held(model)
-        if not held:
-            return self._starts(model, effects)
+        base = self._starts(model, effects)
+        if not held and not self.priors:
+            return base
         idx = {model.parameter_names.index(k): v for k, v in held.items()}
+        means = {}
+        for k, (mean, _) in self.priors.items():
+            try:
+                means.update(held_coordinates(model, {**self.fixed, k: mean}))
+            except ValueError:  # a prior on a parameter of several coordinates: no pinned start
+                continue
+        pinned = {model.parameter_names.index(k): v for k, v in means.items() if k not in held}
+        lo, hi = model.bounds
         out, seen = [], set()
-        for x in self._starts(model, effects):
-            x = np.array(x, dtype=float)
-            for i, v in idx.items():
-                x[i] = v
-            key = tuple(np.round(x, 12))
-            if key not in seen:
-                seen.add(key)
-                out.append(x)
+        for variant in ({}, pinned) if pinned else ({},):
+            for x in base:
+                x = np.array(x, dtype=float)
+                for i, v in {**idx, **variant}.items():
+                    x[i] = min(max(v, lo[i]), hi[i])
+                key = tuple(np.round(x, 12))
+                if key not in seen:
+                    seen.add(key)
+                    out.append(x)
         return out
+
+    def prior_chi2(self, model, x) -> float:
+        """The priors' share of the cost at ``x``: sum of ((g(x) - mean) / sd)^2."""
+        return float(sum(((g(x) - mean) / sd) ** 2 for g, mean, sd in self.prior_terms(model)))
 
     def _starts(self, model, effects: tuple) -> list[np.ndarray]:
         """Start vectors: the warm start with the new effects switched off first (a fit can
@@ -458,6 +443,8 @@ class Fitter:
                 # the noise ranked 5th of 23 by its own misfit, 1st by this)
                 costs = [c if not math.isfinite(c) else _blended(forces[0], f, d.force_mN, w) for c, f in
                          zip(costs, forces)]
+        if self.priors:  # ranked by what the fit minimises: the misfit and the priors' share
+            costs = [c + self.prior_chi2(model, x) if math.isfinite(c) else c for c, x in zip(costs, starts)]
         order = [int(i) for i in np.argsort(costs, kind="stable") if math.isfinite(costs[int(i)])]
         if not order and nested is not None:
             return [nested]  # nothing else to start from
@@ -604,9 +591,12 @@ class Fitter:
             # covariance of the others is that of the fit with it fixed
 
             keep = [model.parameter_names.index(n) for n in best.free_names if n not in active]
-            unscaled, _ = jacobian_covariance(model.jacobian(d.depth_mm, x)[:, keep])
+            rows = model.jacobian(d.depth_mm, x)[:, keep] / self.noise_mN
+            terms = known["priors"] or ()
+            if terms:  # the priors' rows, whitened as the data's: the posterior, as the fit's own covariance
+                rows = np.vstack([rows, _prior_rows(terms, x, keep, lo, hi)])
             cov = np.zeros((x.size, x.size))
-            cov[np.ix_(keep, keep)] = self.noise_mN**2 * unscaled
+            cov[np.ix_(keep, keep)] = jacobian_covariance(rows)[0]
         params, std = model.reported(x, cov)
         for k in self.fixed:  # held: reported without a standard deviation, as every fit does
             std.pop(k, None)
@@ -626,6 +616,57 @@ class Fitter:
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge)
         self.fits[key] = rung
         return rung
+
+
+def held_coordinates(model, fixed: dict) -> dict:
+    """The values ``fixed`` (by the names results report) of the parameters ``model`` has, as its
+    fit coordinates ``{name: value}``.
+
+    A name the model fits directly (``E_kPa``, ``nu``, ``thickness_mm``, ``offset_mm``) is held
+    as it is; a reported parameter that is a one-to-one function of one fit coordinate
+    (``ratio`` = 1 / ``compliance``) is held through that coordinate. A parameter that
+    depends on several fit coordinates (``C20_kPa`` = ``C20_over_E`` E with E free) cannot be
+    held this way: ``ValueError`` saying what to hold instead.
+    """
+    names = model.parameter_names
+    lo, hi = model.bounds
+    out = {k: v for k, v in fixed.items() if k in names}
+    rest = {k: v for k, v in fixed.items() if k not in names}
+    if not rest:
+        return out
+    x = np.array([out.get(n, min(max(1.0, lo[i]), hi[i]) if not math.isfinite(hi[i] - lo[i])
+                             else 0.5 * (lo[i] + hi[i])) for i, n in enumerate(names)])
+    reported = model.model_parameters(x)
+    for k, value in rest.items():
+        if k not in reported:
+            continue  # a parameter of other models (a thickness when no layer is fitted)
+        moves = []
+        for j, n in enumerate(names):
+            y = x.copy()
+            y[j] = x[j] * 1.01 + 1e-3 if math.isfinite(x[j]) else x[j]
+            y[j] = min(max(y[j], lo[j]), hi[j])
+            if model.model_parameters(y)[k] != reported[k]:
+                moves.append(j)
+        free = [j for j in moves if names[j] not in out]
+        if len(moves) != 1 or len(free) != 1:
+            raise ValueError(f"{k} cannot be held on its own in {model.name}: it depends on "
+                             f"{', '.join(names[j] for j in moves)}; hold those instead")
+        j = free[0]
+        out[names[j]] = solve_coordinate(model, x, j, k, value)
+    return out
+
+
+def _prior_rows(terms, x: np.ndarray, columns, lo, hi) -> np.ndarray:
+    """Whitened rows ``d g(theta) / d theta_j / sd`` of the priors ``(g, mean, sd)`` at ``x``, for
+    the parameters ``columns`` (central differences: a prior never runs the force model)."""
+    G = np.zeros((len(terms), len(columns)))
+    for col, j in enumerate(columns):
+        step = 1e-6 * max(abs(x[j]), 1e-6)
+        up, down = x.copy(), x.copy()
+        up[j], down[j] = min(x[j] + step, hi[j]), max(x[j] - step, lo[j])
+        if up[j] > down[j]:
+            G[:, col] = [(g(up) - g(down)) / (up[j] - down[j]) / sd for g, _, sd in terms]
+    return G
 
 
 def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:
