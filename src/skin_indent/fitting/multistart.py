@@ -19,7 +19,7 @@ from ..inverse.result import jacobian_covariance
 from ..models import ComposedModel
 from ..runtime.json_io import jsonable
 from .identification import hertz_modulus
-from .knowledge import prior_summary, solve_coordinate
+from .knowledge import held_coordinates, prior_rows, prior_summary
 from .surfaces import elastic_core
 
 log = logging.getLogger(__name__)
@@ -594,7 +594,7 @@ class Fitter:
             rows = model.jacobian(d.depth_mm, x)[:, keep] / self.noise_mN
             terms = known["priors"] or ()
             if terms:  # the priors' rows, whitened as the data's: the posterior, as the fit's own covariance
-                rows = np.vstack([rows, _prior_rows(terms, x, keep, lo, hi)])
+                rows = np.vstack([rows, prior_rows(terms, x, keep, lo, hi)])
             cov = np.zeros((x.size, x.size))
             cov[np.ix_(keep, keep)] = jacobian_covariance(rows)[0]
         params, std = model.reported(x, cov)
@@ -616,57 +616,6 @@ class Fitter:
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge)
         self.fits[key] = rung
         return rung
-
-
-def held_coordinates(model, fixed: dict) -> dict:
-    """The values ``fixed`` (by the names results report) of the parameters ``model`` has, as its
-    fit coordinates ``{name: value}``.
-
-    A name the model fits directly (``E_kPa``, ``nu``, ``thickness_mm``, ``offset_mm``) is held
-    as it is; a reported parameter that is a one-to-one function of one fit coordinate
-    (``ratio`` = 1 / ``compliance``) is held through that coordinate. A parameter that
-    depends on several fit coordinates (``C20_kPa`` = ``C20_over_E`` E with E free) cannot be
-    held this way: ``ValueError`` saying what to hold instead.
-    """
-    names = model.parameter_names
-    lo, hi = model.bounds
-    out = {k: v for k, v in fixed.items() if k in names}
-    rest = {k: v for k, v in fixed.items() if k not in names}
-    if not rest:
-        return out
-    x = np.array([out.get(n, min(max(1.0, lo[i]), hi[i]) if not math.isfinite(hi[i] - lo[i])
-                             else 0.5 * (lo[i] + hi[i])) for i, n in enumerate(names)])
-    reported = model.model_parameters(x)
-    for k, value in rest.items():
-        if k not in reported:
-            continue  # a parameter of other models (a thickness when no layer is fitted)
-        moves = []
-        for j, n in enumerate(names):
-            y = x.copy()
-            y[j] = x[j] * 1.01 + 1e-3 if math.isfinite(x[j]) else x[j]
-            y[j] = min(max(y[j], lo[j]), hi[j])
-            if model.model_parameters(y)[k] != reported[k]:
-                moves.append(j)
-        free = [j for j in moves if names[j] not in out]
-        if len(moves) != 1 or len(free) != 1:
-            raise ValueError(f"{k} cannot be held on its own in {model.name}: it depends on "
-                             f"{', '.join(names[j] for j in moves)}; hold those instead")
-        j = free[0]
-        out[names[j]] = solve_coordinate(model, x, j, k, value)
-    return out
-
-
-def _prior_rows(terms, x: np.ndarray, columns, lo, hi) -> np.ndarray:
-    """Whitened rows ``d g(theta) / d theta_j / sd`` of the priors ``(g, mean, sd)`` at ``x``, for
-    the parameters ``columns`` (central differences: a prior never runs the force model)."""
-    G = np.zeros((len(terms), len(columns)))
-    for col, j in enumerate(columns):
-        step = 1e-6 * max(abs(x[j]), 1e-6)
-        up, down = x.copy(), x.copy()
-        up[j], down[j] = min(x[j] + step, hi[j]), max(x[j] - step, lo[j])
-        if up[j] > down[j]:
-            G[:, col] = [(g(up) - g(down)) / (up[j] - down[j]) / sd for g, _, sd in terms]
-    return G
 
 
 def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:
