@@ -109,7 +109,7 @@ def test_similarity_surface_matches_across_radii(unit_surface):
 
 
 def test_fix_parser_and_nu_half_is_refused_in_one_line():
-    from skin_indent.cli import CLIError, _parse_fix
+    from skin_indent.cli import CLIError, parse_fix as _parse_fix
 
     assert _parse_fix(["nu=0.499", "E=2", "contact_point_mm=0.07"]) == {"nu": 0.499, "E_kPa": 2.0,
                                                                          "offset_mm": 0.07}
