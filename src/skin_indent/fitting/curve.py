@@ -274,9 +274,11 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
 
     Parameters
     ----------
-    data : Measurement or PreparedCurve
+    data : Measurement or PreparedCurve, or a list of them
         The whole curve as recorded (approach, hold, retract; any baseline; contact
         anywhere), or a curve already prepared with :func:`skin_indent.measurement.prepare`.
+        A list is several curves of one sample fitted together (the model path, default
+        ``model="neo-hooke"``): a :class:`~skin_indent.fitting.sample_fit.SampleFit`.
     surface : ResponseSurface, optional
         A neo-Hookean surface (any radius: rescaled by similarity); default found in the
         cache or built (``context``, ``mesh``).
@@ -338,6 +340,9 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     free = tuple(free or ())
     if set(free) - {"nu"}:
         raise ValueError(f"free takes nu (held at 0.5 by default at AFM scale), got {', '.join(free)}")
+    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
+    if several and model is None:
+        model = "neo-hooke"  # several curves of one sample: the model path fits them together
     if model is not None or priors:
         if free:
             raise ValueError("a fit of a chosen model fits nu unless it is held (--fix nu=...): free is not taken")
