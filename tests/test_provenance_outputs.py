@@ -126,6 +126,10 @@ def test_a_model_fit_with_a_prior_replays_from_its_json(cache, tmp_path, capsys)
     """The model path (``--prior`` implies it): its JSON output, given as a profile, gives the same numbers."""
     code, out = fit_json(capsys, CLEAN, "--prior", "nu=0.45:0.02")
     assert code == 0 and out["provenance"]["settings"]["priors"] == {"nu": [0.45, 0.02]}
+    # the surface the fit used, in the result and in its provenance (was {} and null)
+    (surface,) = out["surface"]
+    assert out["provenance"]["surface"] == out["surface"] and surface["type"] == "ResponseSurface"
+    assert re.fullmatch(r"[0-9a-f]{64}", surface["hash"]) and surface["settings"]["mesh"] == "coarse"
     (tmp_path / "fit.json").write_text(json.dumps(out))
     code, again = fit_json(capsys, CLEAN, "--profile", tmp_path / "fit.json")
     assert code == 0

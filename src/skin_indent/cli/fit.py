@@ -202,8 +202,9 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     if chosen:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
                      noise_mN=args.noise, context=context, mesh=args.mesh)
-        return _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window,
-                                                                                                args.priors)))
+        prov = command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window, args.priors),
+                                  result.surface)
+        return _fit_output(args, path, result, prov)
     if surface is not None:
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:

@@ -62,8 +62,10 @@ class CurveFit(IdentificationResult):
         Why the numbers may not be trusted (a parameter at a bound, misfit far above the
         noise); empty when there is no such reason.
     notes : list of str
-    surface : dict
-        Identity of the response surface used (``hash``, ``settings``).
+    surface : dict or list of dict
+        Identity of the response surface used (``hash``, ``settings``); of a chosen model's fit
+        (``model=...``), a list: every elastic force model its fits used (the model's and those of
+        the rungs below it, which give its starts; :func:`~skin_indent.runtime.provenance.surface_identity`).
     model : str
         The model fitted: ``neo-hooke`` plus ``+effect`` for each effect.
     priors : dict
@@ -87,7 +89,7 @@ class CurveFit(IdentificationResult):
     quality: dict = field(default_factory=dict)
     flags: tuple = ()
     notes: list = field(default_factory=list)
-    surface: dict = field(default_factory=dict)
+    surface: dict | list = field(default_factory=dict)
     model: str = "neo-hooke"
     priors: dict = field(default_factory=dict)
     error_model: dict = field(default_factory=dict)
@@ -138,7 +140,7 @@ class CurveFit(IdentificationResult):
             "quality": dict(self.quality),
             "flags": list(self.flags),
             "notes": list(self.notes),
-            "surface": dict(self.surface),
+            "surface": self.surface,
             "model": self.model,
             "priors": dict(self.priors),
             "error_model": dict(self.error_model),

@@ -28,6 +28,7 @@ from .scale_checks import check_points
 from ..models import HertzModel
 from ..models.composed import at_physical_limit
 from ..runtime.context import context_of
+from ..runtime.provenance import surface_identity
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
 MAX_POINTS = 400
@@ -208,8 +209,8 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                       e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
-                      flags=tuple(flags), notes=notes, surface={}, model=rung.model, priors=dict(rung.priors),
-                      error_model=fitter.error_model())
+                      flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
+                      priors=dict(rung.priors), error_model=fitter.error_model())
     return with_scale_flags(result, at_bounds=tuple(rung.at_bounds))
 
 
