@@ -131,6 +131,23 @@ def test_the_chosen_model_path_has_the_same_checks(context):
     assert not [f for f in whole.flags if not f.startswith(("nu at the bound", "misfit"))]
 
 
+def test_a_model_fit_of_too_few_points_for_the_noise_names_the_cause(context, cli, tmp_path):
+    """The chosen-model path estimates the noise from the data (a local cubic: 7 points at least):
+    fewer points are one line naming the cause and --noise; with the noise given, the fit runs."""
+    six = _forearm(every=15, rows=6)  # h = 0 and 5 points in contact: 6 points on the model path
+    with pytest.raises(MeasurementError, match=r"forearm: 6 points are too few to estimate the noise from the data \(the "
+                                               r"local cubic prediction needs at least 7\): give the noise level"):
+        fit(six, model="neo-hooke", context=context, mesh="coarse")
+    given = fit(six, model="neo-hooke", noise_mN=0.05, context=context, mesh="coarse")
+    assert given.n_points == 6 and any(f.startswith("5 points in contact") for f in given.flags)
+    path = _write(tmp_path / "six.csv", six)
+    for command in ("fit", "diagnose"):
+        extra = ("--model", "neo-hooke") if command == "fit" else ("--max-rungs", "0", "--surfaces-only")
+        code, out, err = cli(command, path, *extra, "--mesh", "coarse")
+        assert code == 2 and err.count("\n") == 1, err
+        assert "too few to estimate the noise" in err and "--noise" in err and "need at least 7 points" not in err
+
+
 # ------------------------------------------------------------------ units follow the data
 def test_one_rule_decides_the_scale_and_its_units():
     assert afm_scale(0.01864) and afm_scale(0.499) and not afm_scale(0.5) and not afm_scale(6.22)
