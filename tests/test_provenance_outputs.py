@@ -136,6 +136,26 @@ def test_a_model_fit_with_a_prior_replays_from_its_json(cache, tmp_path, capsys)
     assert again["model"] == "neo-hooke" and again["parameters"] == out["parameters"]
 
 
+def test_a_profile_is_saved_only_after_the_fit_succeeded(cache, tmp_path, capsys):
+    """A fit refused (h/R > 0.5: the radius in mm given as um), or a batch where no curve could be
+    fitted, leaves no profile; a successful one writes it after its report."""
+    saved = tmp_path / "profile.json"
+    assert main(["fit", str(CURVE), "--radius", "0.0000275", "--save-profile", str(saved), *FIT]) == 2
+    assert "deeper than the sphere's radius" in capsys.readouterr().err and not saved.exists()
+    folder = tmp_path / "bad"
+    folder.mkdir()
+    (folder / "empty.csv").write_text("depth_mm,force_mN\n")
+    assert main(["fit", str(folder), "--save-profile", str(saved), "--workers", "1", *FIT]) == 3
+    assert "1 failed" in capsys.readouterr().out and not saved.exists()
+    assert main(["fit", str(CURVE), "--save-profile", str(tmp_path / "nowhere" / "p.json"), *FIT]) == 2
+    assert "no such folder" in capsys.readouterr().err
+    assert main(["fit", str(CURVE), "--save-profile", str(saved), *FIT]) == 0
+    out = capsys.readouterr().out
+    assert out.rstrip().endswith(f"wrote the profile of this fit to {saved}") and "E_Pa" in out
+    assert read_profile(saved)["window"] == [0.0, 0.01]
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith("profile")] == ["profile.json"]  # no temp file
+
+
 @pytest.mark.parametrize("content, message", [
     ("{not json", "not JSON (line 1"),
     ('{"method": "newton"}', "method must be one of"),

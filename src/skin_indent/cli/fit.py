@@ -74,7 +74,8 @@ def add_fit(sub):
                         "prior, method, window, radius, mesh, noise, contact, start, tol, index, surface), or of "
                         "the provenance of a fit output (JSON, CSV, TSV or PNG); options given override it")
     p.add_argument("--save-profile", type=Path, default=None, metavar="FILE",
-                   help="write the settings of this run as a profile (TOML for a .toml name, else JSON)")
+                   help="write the settings of this run as a profile (TOML for a .toml name, else JSON), once the "
+                        "fit has succeeded (with several curves: once any curve was fitted); a failed fit writes none")
     p.set_defaults(run=_run_fit)
 
 
@@ -149,12 +150,8 @@ def _run_fit(args) -> int:
                            "(--method lsq)")
     args.priors = priors
     window = parse_window(args.window) if args.window else None
-    if args.save_profile is not None:
-        from ..fitting.profile import write_profile
-
-        write_profile(_fit_settings(args, fixed, window, priors), args.save_profile)
-        if not args.json:
-            print(f"wrote the profile of this fit to {args.save_profile}")
+    if args.save_profile is not None and not args.save_profile.absolute().parent.is_dir():
+        raise CLIError(f"--save-profile {args.save_profile}: no such folder {args.save_profile.absolute().parent}")
     x0 = parse_start(args.start) if args.start else None
     surface = None
     if args.surface is not None:
@@ -202,9 +199,11 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     if chosen:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
                      noise_mN=args.noise, context=context, mesh=args.mesh)
-        prov = command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window, args.priors),
-                                  result.surface)
-        return _fit_output(args, path, result, prov)
+        settings = _fit_settings(args, fixed, window, args.priors)
+        code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+        if result.success:
+            _save_profile(args, settings)
+        return code
     if surface is not None:
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:
@@ -215,8 +214,22 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
                                f"{prepared.radius_mm:g} mm") from None
     result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
                  context=context, mesh=args.mesh, free=args.free)
-    prov = command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window), result.surface)
-    return _fit_output(args, path, result, prov)
+    settings = _fit_settings(args, fixed, window)
+    code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+    if result.success:  # a failed fit leaves no profile
+        _save_profile(args, settings)
+    return code
+
+
+def _save_profile(args, settings) -> None:
+    """``--save-profile``: the settings of a fit that ran, written atomically (called only after success)."""
+    if args.save_profile is None:
+        return
+    from ..fitting.profile import write_profile
+
+    write_profile(settings, args.save_profile)
+    if not args.json:
+        print(f"wrote the profile of this fit to {args.save_profile}")
 
 
 def _fit_inputs(args) -> list:
@@ -285,6 +298,8 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     for r in rows:
         for flag in r.flags:
             print(f"skin-indent fit: warning: {r.label}: {flag}", file=sys.stderr)
+    if len(rows) > rows.n_failed:  # a batch where no curve could be fitted leaves no profile
+        _save_profile(args, _fit_settings(args, fixed, window, args.priors))
     strict = True if args.strict is None else args.strict
     return EXIT_FLAGGED if (strict and not rows.trusted) else EXIT_OK
 
