@@ -239,6 +239,7 @@ def _fit_inputs(args) -> list:
 
 def _fit_output(args, path, result, prov) -> int:
     """Write the plots, print the report or JSON and the flags; the exit status."""
+    from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
     from ..runtime.provenance import with_provenance
 
@@ -254,8 +255,9 @@ def _fit_output(args, path, result, prov) -> int:
         print(result.report())
         if args.plot is not None:
             print(f"wrote {args.plot / (path.stem + '.png')} and {args.plot / (path.stem + '.csv')}")
+    units = display_units(result.radius_mm)
     for flag in result.flags:
-        print(f"skin-indent fit: warning: {path}: {flag}", file=sys.stderr)
+        print(f"skin-indent fit: warning: {path}: {shown_in(flag, units)}", file=sys.stderr)
     if not result.success:  # a failed curve (exit 3 as a flagged one), said on stderr
         print(f"skin-indent fit: warning: {path}: the fit failed", file=sys.stderr)
         return EXIT_FLAGGED

@@ -31,6 +31,7 @@ import numpy as np
 from ._errors import MeasurementError
 from .contact import Baseline, ContactPoint, find_contact_point
 from .core import Measurement
+from .scale import Quantity, UnitText
 from .segments import find_segments
 from ..inverse.noise import estimate_noise, noise_min_points
 
@@ -344,5 +345,6 @@ def _check_scale(m: Measurement, depth, force, c0, radius, radius_source) -> lis
                                f"{where}): deeper than the sphere's radius; {hint} or {wrong}")
     notes = []
     if radius_source == "default":
-        notes.append(f"sphere radius not given: the skin default R = {SKIN_RADIUS_MM:g} mm is used")
+        notes.append(UnitText("sphere radius not given: the skin default R = {R:g} is used",
+                              R=Quantity(SKIN_RADIUS_MM, "mm")))
     return notes
