@@ -49,7 +49,16 @@ def _models(diag):
     return out
 
 
-def fit_figure(diag):
+def _canvas(fig, figsize):
+    """``fig`` (a Figure or a SubFigure to draw into), else a new Figure of ``figsize`` (inches)."""
+    if fig is not None:
+        return fig
+    from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
+
+    return Figure(figsize=figsize, layout="constrained")
+
+
+def fit_figure(diag, fig=None):
     """The measurement and every fitted model against depth (``fit.png``).
 
     Models are drawn in the order of :func:`_models` with their own line styles and
@@ -59,16 +68,17 @@ def fit_figure(diag):
     Parameters
     ----------
     diag : Diagnosis
+    fig : matplotlib.figure.Figure or SubFigure, optional
+        Draw into this (e.g. a panel of a composite figure); default a new figure.
 
     Returns
     -------
     matplotlib.figure.Figure
+        ``fig`` when given.
     """
-    from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
-
     d = diag.data
     models = _models(diag)
-    fig = Figure(figsize=(7, 4.5), layout="constrained")
+    fig = _canvas(fig, (7, 4.5))
     ax = fig.subplots()
     ax.plot(d.depth_mm, d.force_mN, ".", ms=3, color="0.4", label="measurement")
     names = [model_label(f.model) for f in models]
@@ -83,23 +93,23 @@ def fit_figure(diag):
     return fig
 
 
-def residual_figure(diag):
+def residual_figure(diag, fig=None):
     """The residual of each model against depth (and time), with the +-2 sd noise band (``residuals.png``).
 
     Parameters
     ----------
     diag : Diagnosis
+    fig : matplotlib.figure.Figure or SubFigure, optional
+        Draw into this; default a new figure.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib.figure import Figure
-
     d = diag.data
     models = _models(diag)
     timed = d.time_s is not None
-    fig = Figure(figsize=(9 if timed else 7, 2.2 * len(models) + 0.4), layout="constrained")
+    fig = _canvas(fig, (9 if timed else 7, 2.2 * len(models) + 0.4))
     axes = fig.subplots(len(models), 2 if timed else 1, squeeze=False, sharex="col")
     band = 2.0 * diag.noise_mN
     xs = [(d.depth_mm, "depth (mm)")] + ([(d.time_s, "time (s)")] if timed else [])
@@ -120,21 +130,21 @@ def residual_figure(diag):
     return fig
 
 
-def ladder_figure(diag):
+def ladder_figure(diag, fig=None):
     """RMS and BIC of each model (``ladder.png``): the models by their names, BIC lower is better.
 
     Parameters
     ----------
     diag : Diagnosis
+    fig : matplotlib.figure.Figure or SubFigure, optional
+        Draw into this; default a new figure.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib.figure import Figure
-
     models = _models(diag)
-    fig = Figure(figsize=(9, 4.2), layout="constrained")
+    fig = _canvas(fig, (9, 4.2))
     a1, a2 = fig.subplots(1, 2)
     names = [model_label(f.model).replace(" + ", "\n+ ") for f in models]  # one effect per line
     a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
