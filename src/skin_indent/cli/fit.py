@@ -266,6 +266,7 @@ def _fit_output(args, path, result, prov) -> int:
 
 def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     """Every curve of every file: one line (or TSV row) per curve; a bad file is a row, never the end."""
+    from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
     from ..batch import fit_many
     from ..report.batch_table import row_line, summary_figure, write_tsv
@@ -298,8 +299,9 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
               + (f"; wrote {args.out}" if args.out is not None else "")
               + (f"; figures in {args.plot}" if args.plot is not None else ""))
     for r in rows:
+        units = display_units(r.radius_mm)
         for flag in r.flags:
-            print(f"skin-indent fit: warning: {r.label}: {flag}", file=sys.stderr)
+            print(f"skin-indent fit: warning: {r.label}: {shown_in(flag, units)}", file=sys.stderr)
     if len(rows) > rows.n_failed:  # a batch where no curve could be fitted leaves no profile
         _save_profile(args, _fit_settings(args, fixed, window, args.priors))
     strict = True if args.strict is None else args.strict
