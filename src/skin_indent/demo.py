@@ -30,7 +30,7 @@ from .measurement import load_csv, prepare
 from .report import save_figure
 from .runtime.atomic import atomic_write
 from .runtime.json_io import dumps
-from .runtime.provenance import provenance, with_provenance
+from .runtime.provenance import provenance, surface_identity, with_provenance
 
 RADIUS_MM = 6.22
 WINDOW_MM = (0.05, 0.6)
@@ -103,6 +103,8 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
         for f in diag.ladder:
             echo(f"  {f.model:<32} RMS {f.rms_mN:.4f} mN  {'white' if f.white else 'structured'}")
         echo(diag.sentence())
+        # the report and demo.json record the diagnosis's surfaces too (demo.png: the paper's surface alone)
+        prov = {**prov, "surface": surface_identity([surface, *diag.surfaces])}
         page = write_report(diag, out / "diagnosis", provenance=prov)
         timings["diagnose"] = time.perf_counter() - t
     summary = {

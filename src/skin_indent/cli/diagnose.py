@@ -65,7 +65,7 @@ def _run_diagnose(args) -> int:
         raise CLIError(f"--max-rungs must be >= 0, got {args.max_rungs}")
     diag = diagnose(measurement, candidates=candidates, add=add, noise_mN=args.noise, segments=segments,
                     max_rungs=args.max_rungs, in_loop=not args.surfaces_only, context=context, mesh=args.mesh)
-    prov = command_provenance(args, [args.data], leave_out=("data", "report"))
+    prov = command_provenance(args, [args.data], leave_out=("data", "report"), surface=diag.surfaces)
     if args.report is not None:
         page = write_report(diag, args.report, provenance=prov)
     if args.json:

@@ -227,6 +227,12 @@ class Fitter:
                                             e_star_kPa=self.e_star, context=self.context, mesh=self.mesh)
         return self._cores[key]
 
+    @property
+    def cores(self) -> tuple:
+        """The elastic force models the fits have used so far (response surfaces, effect surfaces, finite
+        elements in the loop), in the order they were first needed: what a provenance records."""
+        return tuple(self._cores.values())
+
     def full(self, effects) -> tuple:
         """The effects of the fitted model: the implicit contact point first (once), then ``effects``."""
         names = tuple(e.name for e in instances(effects))
