@@ -203,8 +203,8 @@ def test_an_interruption_exits_130(command, target, monkeypatch, capsys, tmp_pat
 
 
 def _fake_fit(flags=(), success=True):
-    result = SimpleNamespace(flags=tuple(flags), success=success, surface=None, report=lambda: "report",
-                             to_dict=lambda: {"E_kPa": 1.0})
+    result = SimpleNamespace(flags=tuple(flags), success=success, surface=None, radius_mm=6.22,
+                             report=lambda: "report", to_dict=lambda: {"E_kPa": 1.0})
 
     def fit(*args, **kwargs):
         return result

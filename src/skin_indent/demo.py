@@ -40,7 +40,7 @@ from .report import save_figure
 from .report.sample_figure import sample_diagnosis_figure
 from .runtime.atomic import atomic_write
 from .runtime.json_io import dumps
-from .runtime.provenance import provenance, with_provenance
+from .runtime.provenance import provenance, surface_identity, with_provenance
 
 RADIUS_MM = 6.22
 #: the demo's second measurement: the same skin, a sphere of half the radius (its file gives R = 3.11 mm)
@@ -119,6 +119,8 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
         for f in diag.ladder:
             echo(f"  {f.model:<32} RMS {f.rms_mN:.4f} mN  {'white' if f.white else 'structured'}")
         echo(diag.sentence())
+        # the report and demo.json record the diagnosis's surfaces too (demo.png: the paper's surface alone)
+        prov = {**prov, "surface": surface_identity([surface, *diag.surfaces])}
         page = write_report(diag, out / "diagnosis", provenance=prov)
         timings["diagnose"] = time.perf_counter() - t
         if diag.verdict == "ambiguous" or diag.undetermined() or len(diag.confounded_with) > 1:

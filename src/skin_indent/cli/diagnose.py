@@ -98,7 +98,7 @@ def _run_diagnose(args) -> int:
     diag = diagnose(measurement, candidates=candidates, add=add, noise_mN=noise, segments=segments,
                     max_rungs=args.max_rungs, in_loop=not args.surfaces_only, context=context, mesh=args.mesh,
                     fixed=fixed or None, priors=priors or None)
-    prov = command_provenance(args, list(args.data), leave_out=("data", "report"))
+    prov = command_provenance(args, list(args.data), leave_out=("data", "report"), surface=diag.surfaces)
     if args.report is not None:
         page = write_report(diag, args.report, provenance=prov)
     if args.json:

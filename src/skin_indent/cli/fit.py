@@ -81,7 +81,8 @@ def add_fit(sub):
                         "prior, method, window, radius, mesh, noise, contact, start, tol, index, surface), or of "
                         "the provenance of a fit output (JSON, CSV, TSV or PNG); options given override it")
     p.add_argument("--save-profile", type=Path, default=None, metavar="FILE",
-                   help="write the settings of this run as a profile (TOML for a .toml name, else JSON)")
+                   help="write the settings of this run as a profile (TOML for a .toml name, else JSON), once the "
+                        "fit has succeeded (with several curves: once any curve was fitted); a failed fit writes none")
     p.set_defaults(run=_run_fit)
 
 
@@ -160,12 +161,8 @@ def _run_fit(args) -> int:
                            "(--method lsq)")
     args.priors = priors
     window = parse_window(args.window) if args.window else None
-    if args.save_profile is not None:
-        from ..fitting.profile import write_profile
-
-        write_profile(_fit_settings(args, fixed, window, priors), args.save_profile)
-        if not args.json:
-            print(f"wrote the profile of this fit to {args.save_profile}")
+    if args.save_profile is not None and not args.save_profile.absolute().parent.is_dir():
+        raise CLIError(f"--save-profile {args.save_profile}: no such folder {args.save_profile.absolute().parent}")
     x0 = parse_start(args.start) if args.start else None
     surface = None
     if args.surface is not None:
@@ -292,8 +289,11 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     if chosen:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
                      noise_mN=args.noise, context=context, mesh=args.mesh)
-        return _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window,
-                                                                                                args.priors)))
+        settings = _fit_settings(args, fixed, window, args.priors)
+        code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+        if result.success:
+            _save_profile(args, settings)
+        return code
     if surface is not None:
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:
@@ -304,8 +304,22 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
                                f"{prepared.radius_mm:g} mm") from None
     result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
                  context=context, mesh=args.mesh, free=args.free)
-    prov = command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window), result.surface)
-    return _fit_output(args, path, result, prov)
+    settings = _fit_settings(args, fixed, window)
+    code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+    if result.success:  # a failed fit leaves no profile
+        _save_profile(args, settings)
+    return code
+
+
+def _save_profile(args, settings) -> None:
+    """``--save-profile``: the settings of a fit that ran, written atomically (called only after success)."""
+    if args.save_profile is None:
+        return
+    from ..fitting.profile import write_profile
+
+    write_profile(settings, args.save_profile)
+    if not args.json:
+        print(f"wrote the profile of this fit to {args.save_profile}")
 
 
 def _fit_inputs(args) -> list:
@@ -315,6 +329,7 @@ def _fit_inputs(args) -> list:
 
 def _fit_output(args, path, result, prov) -> int:
     """Write the plots, print the report or JSON and the flags; the exit status."""
+    from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
     from ..runtime.provenance import with_provenance
 
@@ -330,8 +345,9 @@ def _fit_output(args, path, result, prov) -> int:
         print(result.report())
         if args.plot is not None:
             print(f"wrote {args.plot / (path.stem + '.png')} and {args.plot / (path.stem + '.csv')}")
+    units = display_units(result.radius_mm)
     for flag in result.flags:
-        print(f"skin-indent fit: warning: {path}: {flag}", file=sys.stderr)
+        print(f"skin-indent fit: warning: {path}: {shown_in(flag, units)}", file=sys.stderr)
     if not result.success:  # a failed curve (exit 3 as a flagged one), said on stderr
         print(f"skin-indent fit: warning: {path}: the fit failed", file=sys.stderr)
         return EXIT_FLAGGED
@@ -340,6 +356,7 @@ def _fit_output(args, path, result, prov) -> int:
 
 def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     """Every curve of every file: one line (or TSV row) per curve; a bad file is a row, never the end."""
+    from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
     from ..batch import fit_many
     from ..report.batch_table import row_line, summary_figure, write_tsv
@@ -372,8 +389,11 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
               + (f"; wrote {args.out}" if args.out is not None else "")
               + (f"; figures in {args.plot}" if args.plot is not None else ""))
     for r in rows:
+        units = display_units(r.radius_mm)
         for flag in r.flags:
-            print(f"skin-indent fit: warning: {r.label}: {flag}", file=sys.stderr)
+            print(f"skin-indent fit: warning: {r.label}: {shown_in(flag, units)}", file=sys.stderr)
+    if len(rows) > rows.n_failed:  # a batch where no curve could be fitted leaves no profile
+        _save_profile(args, _fit_settings(args, fixed, window, args.priors))
     strict = True if args.strict is None else args.strict
     return EXIT_FLAGGED if (strict and not rows.trusted) else EXIT_OK
 

@@ -205,6 +205,12 @@ class Diagnosis:
         return self.ladder[0]
 
     @property
+    def surfaces(self) -> tuple:
+        """The response surfaces (and finite-element cores) the fits of the diagnosis used, as its
+        provenance records them (:func:`~skin_indent.runtime.provenance.surface_identity`)."""
+        return self.fitter.cores if self.fitter is not None else ()
+
+    @property
     def missing(self) -> tuple:
         """The effects the climb added to the given model."""
         return tuple(self.current.effects[self.n_given:])

@@ -21,6 +21,7 @@ import numpy as np
 from ..effects import CONTACT_POINT, WEIGHED, effect, instances
 from ..inverse import IdentificationResult
 from ..measurement import SEGMENTS, CurveSet, PreparedCurve, prepare
+from ..measurement.scale import Name, Quantity, UnitText
 from .curve import MISFIT_FLAG, CurveFit, quality, with_scale_flags
 from .identification import hertz_modulus, run_method
 from .knowledge import DETERMINED_BY
@@ -30,6 +31,7 @@ from .scale_checks import check_points
 from ..models import HertzModel
 from ..models.composed import at_physical_limit
 from ..runtime.context import context_of
+from ..runtime.provenance import surface_identity
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
 MAX_POINTS = 400
@@ -254,18 +256,22 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
             flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
                          f"({s['tension_sd']:.1f} combined sd apart)")
     notes = list(prepared.notes)
-    notes += [f"{name} held at {v:g}" for name, v in fitter.fixed.items() if name in p]
+    notes += [UnitText("{name} held at {value:g}", name=Name(name), value=Quantity(v, name))
+              for name, v in fitter.fixed.items() if name in p]
     for name, s in rung.priors.items():
-        notes.append(f"{name}: prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g}, posterior {s['posterior']:.4g} "
-                     f"+- {s['posterior_sd']:.2g} (sd x {s['narrowed']:.2f}: {DETERMINED_BY[s['determined_by']]})")
+        notes.append(UnitText("{name}: prior {mean:.4g} +- {sd:.2g}, posterior {post:.4g} +- {post_sd:.2g} (sd x "
+                              "{narrowed:.2f}: {by})", name=Name(name), mean=Quantity(s["prior_mean"], name),
+                              sd=Quantity(s["prior_sd"], name), post=Quantity(s["posterior"], name),
+                              post_sd=Quantity(s["posterior_sd"], name), narrowed=s["narrowed"],
+                              by=DETERMINED_BY[s["determined_by"]]))
     aic, bic = evidence(rung.chi2_weighted, k, n)
     base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
     base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
     result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                       e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
-                      flags=tuple(flags), notes=notes, surface={}, model=rung.model, priors=dict(rung.priors),
-                      error_model=fitter.error_model())
+                      flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
+                      priors=dict(rung.priors), error_model=fitter.error_model())
     return with_scale_flags(result, at_bounds=tuple(rung.at_bounds))
 
 

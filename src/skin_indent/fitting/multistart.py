@@ -290,6 +290,13 @@ class Fitter:
                                                e_star_kPa=self.e_stars[k], context=self.context, mesh=self.mesh)
         return self._cores[key, k]
 
+    @property
+    def cores(self) -> tuple:
+        """The elastic force models the fits have used so far (response surfaces, effect surfaces, finite
+        elements in the loop; one per curve of a sample), in the order they were first needed: what a
+        provenance records."""
+        return tuple(self._cores.values())
+
     def full(self, effects, k: int = 0) -> tuple:
         """The effects of curve ``k``'s fitted model: its implicit contact point first (once), then ``effects``."""
         names = tuple(e.name for e in instances(effects))

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..measurement import MeasurementError
 from ..measurement.preparation import MIN_DEPTH_RATIO
-from ..measurement.scale import format_modulus
+from ..measurement.scale import Name, Quantity, UnitText, format_modulus
 
 __all__ = ["MODULUS_RANGE_KPA", "POINTS_PER_PARAMETER", "check_points", "contact_points", "depth_ratio_flags",
            "min_points", "modulus_flags", "points_flags", "scale_flags", "soft_min_points", "undetermined_flags"]
@@ -171,7 +171,9 @@ def undetermined_flags(parameters: dict, std: dict, names, at_bounds=()) -> list
         if _signed(name) or name in at_bounds or not (math.isfinite(value) and value > 0 and math.isfinite(sd)):
             continue
         if sd > value:
-            flags.append(f"{name} is not determined by this curve (sd {sd:.3g} > value {value:.3g}): "
-                         + ("hold it fixed if it is known (--fix)" if name != "E_kPa" else
-                            "too few points, too shallow a curve, or E and nu both free at small h/R (--fix nu=0.5)"))
+            flags.append(UnitText("{name} is not determined by this curve (sd {sd:.3g} > value {value:.3g}): {why}",
+                                  name=Name(name), sd=Quantity(sd, name), value=Quantity(value, name),
+                                  why="hold it fixed if it is known (--fix)" if name != "E_kPa" else
+                                  "too few points, too shallow a curve, or E and nu both free at small h/R "
+                                  "(--fix nu=0.5)"))
     return flags
