@@ -126,7 +126,7 @@ def test_a_joint_fit_of_two_spheres_recovers_the_half_space_and_determines_nu_be
     assert joint.trusted
 
 
-def test_two_loading_speeds_show_relaxation_that_one_ramp_cannot(gallery_cache, diagnosis_surfaces):
+def test_two_loading_speeds_show_relaxation_that_one_ramp_cannot(gallery_cache, diagnosis_surfaces, tmp_path):
     from skin_indent.diagnosis import diagnose
 
     theta = {"E_kPa": 10.0, "nu": 0.45, "g1": 0.4, "tau1_s": 5.0}
@@ -144,6 +144,14 @@ def test_two_loading_speeds_show_relaxation_that_one_ramp_cannot(gallery_cache, 
     assert [len(r["rms_mN"]) for r in out["ladder"]] == [2, 2]
     assert out["data"] == [slow.source, fast.source]
     assert both.report().count("curve ") >= 2
+    # the report shows every curve with every rung: the page's table has each curve's RMS as the JSON has it
+    from skin_indent.report import write_report
+
+    page = write_report(both, tmp_path / "report").read_text()
+    assert "2 curves of one sample" in page and slow.source in page and fast.source in page
+    for rung in out["ladder"]:
+        assert ", ".join(f"{v:.4g}" for v in rung["rms_mN"]) in page
+    assert (tmp_path / "report" / "fit.png").is_file() and (tmp_path / "report" / "ladder.png").is_file()
 
 
 def test_a_prior_narrows_the_other_parameters_and_a_wrong_one_is_in_tension(gallery_cache, diagnosis_surfaces,
