@@ -76,6 +76,7 @@ _EXPORTS = {
     "plan": "skin_indent.diagnosis",
     "Plan": "skin_indent.diagnosis",
     "write_report": "skin_indent.report",
+    "write_plan": "skin_indent.report",
 }
 # top-level name -> the name in its module (the mechanics' ``Layer`` and ``Viscoelastic`` are a
 # layer of a sample and a material law; at the top level ``layer`` and ``viscoelastic`` are effects)

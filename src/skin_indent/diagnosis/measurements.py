@@ -181,6 +181,12 @@ def _check_depth(depth_mm: float, radius_mm: float, what: str) -> None:
                          f"({radius_mm:.3g} mm), beyond what the model handles (h/R <= {MAX_DEPTH_RATIO:g})")
 
 
+def _moving(depth_mm) -> np.ndarray:
+    """Per time step of a history: the sphere moves (its depth changes by more than 1e-9 of the deepest)."""
+    d = np.asarray(depth_mm, dtype=float)
+    return np.abs(np.diff(d)) > 1e-9 * float(np.max(np.abs(d)))
+
+
 def sphere(base, radius_mm: float) -> Candidate:
     """A sphere of radius ``radius_mm`` (mm) pressed to the recorded depths at the recorded times.
 
@@ -206,8 +212,8 @@ def deeper(base, max_depth_mm: float) -> Candidate:
     """The recorded history to ``max_depth_mm`` (mm) with the same sphere at the same speed.
 
     Every depth is scaled by ``max_depth_mm`` over the recorded deepest one; the time
-    steps of moving segments (approach, retract) by the same factor (the speed stays),
-    those of holds are kept.
+    steps in which the sphere moves by the same factor (the speed stays), those in which
+    it stands still (a hold) are kept.
     """
     h = float(np.max(base.depth_mm))
     if not (math.isfinite(max_depth_mm) and max_depth_mm > h * (1 + 1e-9)):
@@ -216,7 +222,7 @@ def deeper(base, max_depth_mm: float) -> Candidate:
     k = max_depth_mm / h
     t = base.time_s
     if t is not None:
-        dt = np.diff(t) * np.where(base.kind[1:] == "hold", 1.0, k)
+        dt = np.diff(t) * np.where(_moving(base.depth_mm), k, 1.0)
         t = t[0] * k + np.r_[0.0, np.cumsum(dt)]
     curve = _points(base, k * base.depth_mm, t, base.kind, base.radius_mm)
     return Candidate("deeper", f"an indentation to {max_depth_mm:.3g} mm ({k:.3g} times deeper) with the same sphere",
@@ -235,10 +241,9 @@ def hold(base, hold_s: float = HOLD_S, points: int = HOLD_POINTS) -> Candidate:
         raise ValueError("the recorded curve has no time column: a hold cannot follow its history")
     if not (math.isfinite(hold_s) and hold_s > 0):
         raise ValueError(f"a hold must last a positive number of seconds, got {hold_s:g}")
-    load = np.flatnonzero(base.kind == "approach")
-    if load.size < 2:
+    end = int(np.argmax(base.depth_mm)) + 1  # the loading: up to the first deepest point
+    if end < 2:
         raise ValueError("the recorded curve has no loading to hold after")
-    end = int(load[np.argmax(base.depth_mm[load])]) + 1
     t_end, h_end = float(base.time_s[end - 1]), float(base.depth_mm[end - 1])
     time = np.r_[base.time_s[:end], t_end + hold_s * np.arange(1, points + 1) / points]
     curve = _points(base, np.r_[base.depth_mm[:end], np.full(points, h_end)], time,
@@ -258,8 +263,8 @@ def loading_speed(curve) -> float:
 
 
 def speed(base, speed_mm_per_s: float) -> Candidate:
-    """The recorded history at another loading speed (mm/s): the time steps of moving segments
-    scaled by the recorded speed over ``speed_mm_per_s``, those of holds kept."""
+    """The recorded history at another loading speed (mm/s): the time steps in which the sphere
+    moves scaled by the recorded speed over ``speed_mm_per_s``, those in which it stands still kept."""
     if base.time_s is None:
         raise ValueError("the recorded curve has no time column: its speed is unknown")
     if not (math.isfinite(speed_mm_per_s) and speed_mm_per_s > 0):
@@ -268,7 +273,7 @@ def speed(base, speed_mm_per_s: float) -> Candidate:
     if not (math.isfinite(v) and v > 0):
         raise ValueError("the recorded loading has no positive speed")
     k = v / speed_mm_per_s
-    dt = np.diff(base.time_s) * np.where(base.kind[1:] == "hold", 1.0, k)
+    dt = np.diff(base.time_s) * np.where(_moving(base.depth_mm), k, 1.0)
     t = base.time_s[0] * k + np.r_[0.0, np.cumsum(dt)]
     curve = _points(base, base.depth_mm, t, base.kind, base.radius_mm)
     return Candidate("speed", f"a loading speed of {speed_mm_per_s:.3g} mm/s (recorded: {v:.3g} mm/s)", curve,
@@ -421,7 +426,7 @@ class Separation:
     a, b : str
         The two models (``a`` the diagnosis' choice).
     max_difference_mN : float
-        max |F_b - F_a| (mN).
+        The largest difference of the predicted curves, max abs(F_b - F_a) (mN).
     max_difference_noise : float
         The same over the noise.
     separation : float

@@ -171,8 +171,11 @@ class Plan:
     undetermined : dict
         ``{parameter: value}`` of its last rung that it could not determine.
     recorded_std : dict
-        Their standard deviations from the recorded curves alone (finite-element Jacobians
-        at the fitted values; with the priors).
+        Their standard deviations from the recorded curves alone by the plan's own route
+        (finite-element Jacobians at the fitted values, the priors included): the yardstick
+        of the candidates' ``std``. The diagnosis reports the same numbers where it computed
+        them by finite elements (``std_source``); kept to surfaces (``in_loop=False``), it
+        reports the fit's, and both are shown.
     noise_mN : float
         The noise of the first recorded curve, the noise of every candidate (mN).
     ranking : list of Assessment
@@ -249,9 +252,14 @@ class Plan:
                          + ", ".join(f"{f.model} (BIC {f.bic:.1f})" for f in self.rivals))
         if self.undetermined:
             cur = d.current
-            lines.append(f"not determined ({cur.model}): " + ", ".join(
-                f"{k} = {v:.3g} +- {self.recorded_std.get(k, cur.std.get(k, math.nan)):.2g}"
-                for k, v in self.undetermined.items()))
+            parts = []
+            for k, v in self.undetermined.items():
+                said, fe = cur.std.get(k, math.nan), self.recorded_std.get(k, math.nan)
+                text = f"{k} = {v:.3g} +- {said:.2g}"
+                if math.isfinite(fe) and not math.isclose(fe, said, rel_tol=1e-3):
+                    text += f" (+- {fe:.2g} by finite-element derivatives)"
+                parts.append(text)
+            lines.append(f"not determined ({cur.model}): " + ", ".join(parts))
         lines.append("candidates, best first (S: root-sum-square difference of the predicted curves over the "
                      f"candidate's points, noise units, before refitting, too close below {TOO_CLOSE:.3g}; sd: fitted "
                      "with the recorded curves):")
@@ -294,7 +302,7 @@ class Plan:
             "nothing_to_plan": self.nothing_to_plan,
             "explanations": [{"model": f.model, "effects": list(f.effects), "parameters": f.parameters,
                               "bic": f.bic, "delta_bic": f.bic - choice.bic} for f in self.explanations],
-            "undetermined": {k: {"value": v, "sd_recorded": self.recorded_std.get(k)}
+            "undetermined": {k: {"value": v, "sd": d.current.std.get(k), "sd_recorded": self.recorded_std.get(k)}
                              for k, v in self.undetermined.items()},
             "statistics": {
                 "max_difference_mN": "max |F_b - F_a| over the candidate's points",
@@ -303,7 +311,9 @@ class Plan:
                 "too_close": f"separation < sqrt(RIVAL) = {TOO_CLOSE:.4g}: S^2, the chi-square rise before "
                              "refitting, is below the BIC gap at which a diagnosis excludes a rival",
                 "std": "sd with the candidate fitted together with the recorded curves (information matrices "
-                       "summed, finite-element Jacobians at the fitted values, priors included)"},
+                       "summed, finite-element Jacobians at the fitted values, priors included)",
+                "sd_recorded": "the same from the recorded curves alone (the yardstick); sd: as the diagnosis "
+                               "reports it"},
             "ranking": [assessment(i, a) for i, a in enumerate(self.ranking, 1)],
             "skipped": dict(self.skipped),
             "notes": list(self.notes),

@@ -165,7 +165,7 @@ def plan_figure(plan, best: int | None = None):
                 if math.isfinite(rel0[i]) and math.isfinite(rel1[i]):
                     ax.annotate("", xy=(rel1[i], y[i]), xytext=(rel0[i], y[i]),
                                 arrowprops={"arrowstyle": "->", "color": "0.5"})
-            ax.plot(rel0, y, "o", color="0.55", label="recorded curve(s) alone")
+            ax.plot(rel0, y, "o", color="0.55", label="recorded curve(s) alone (FE)")
             ax.plot(rel1, y, "D", color="C0", label="with this measurement")
             ax.axvline(DETERMINED, color="C3", linestyle="--", linewidth=1,
                        label=f"determined below {DETERMINED:g}")
