@@ -116,8 +116,9 @@ def rival_diagnosis(ctx):
 
 @pytest.fixture(scope="module")
 def rival_plan(rival_diagnosis, ctx):
-    """The plan with the default candidates, and a hold and a speed that no explanation cares about."""
-    return plan(rival_diagnosis, hold_s=60.0, speeds_mm_per_s=(0.1,), context=ctx)
+    """The plan with a sphere of half the radius, 1.5 times deeper (the default), the same sphere again,
+    and a hold and a speed that no explanation cares about."""
+    return plan(rival_diagnosis, radii=(3.11,), hold_s=60.0, speeds_mm_per_s=(0.1,), context=ctx)
 
 
 @RIVALS

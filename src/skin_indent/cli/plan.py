@@ -74,9 +74,7 @@ def add_plan(sub):
 
 
 def _run_plan(args) -> int:
-    import dataclasses
-
-    from ..diagnosis import Diagnosis, plan
+    from ..diagnosis import plan
     from ..measurement import load_curve
     from ..report import write_plan
     from ..runtime.context import Context
@@ -92,9 +90,6 @@ def _run_plan(args) -> int:
         raise CLIError(f"--max-rungs must be >= 0, got {args.max_rungs}")
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
-    if len(args.data) > 1 and "curves" not in {f.name for f in dataclasses.fields(Diagnosis)}:
-        raise CLIError("several curves of one sample need the joint diagnosis, which this version does not have: "
-                       "give one curve")
     measurements = [load_curve(path, radius_mm=args.radius) for path in args.data]
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()]
     context = Context(workers=args.workers, scheduler=args.scheduler, progress=progress_of(args, off=args.json))

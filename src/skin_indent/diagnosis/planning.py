@@ -37,6 +37,7 @@ the predicted curves and a figure are written by :func:`skin_indent.report.write
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field
@@ -56,7 +57,7 @@ from .workflow import RIVAL, Diagnosis, diagnose
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Assessment", "Plan", "explanations", "plan", "recorded"]
+__all__ = ["BEST", "TOO_CLOSE", "Assessment", "Plan", "explanations", "plan", "recorded"]
 
 #: below this separation (noise units) a candidate cannot separate two explanations: its S^2, the
 #: chi-square rise before refitting, is under :data:`~.workflow.RIVAL`, the gap at which a diagnosis
@@ -324,9 +325,10 @@ class Plan:
 
 
 # ----------------------------------------------------------------------------- the plan
-def _candidates(base, *, radii, max_depth_mm, hold_s, speeds, in_time: bool, given: set) -> tuple[list, dict]:
+def _candidates(base, *, radii, max_depth_mm, hold_s, speeds, not_in_time: str | None, given: set) -> tuple[list, dict]:
     """The candidates to weigh, and ``{measurement: why not}``. Settings the user gave that cannot be
-    made raise ``ValueError``; defaults that cannot be made are skipped."""
+    made raise ``ValueError``; defaults that cannot be made are skipped; a hold and other speeds are
+    weighed unless ``not_in_time`` says why not."""
     R, h = float(base.radius_mm), float(np.max(base.depth_mm))
     out, skipped = [], {}
 
@@ -346,16 +348,15 @@ def _candidates(base, *, radii, max_depth_mm, hold_s, speeds, in_time: bool, giv
     depth = DEEPER * h if max_depth_mm is None else max_depth_mm
     add(f"an indentation to {depth:.3g} mm", lambda: deeper(base, depth), "max_depth_mm" in given)
     wanted_hold = HOLD_S if hold_s is None else hold_s
-    if in_time:
+    if not_in_time is None:
         add(f"a {wanted_hold:g} s hold", lambda: hold(base, wanted_hold), "hold_s" in given)
         for v in speeds:
             add(f"a loading speed of {v:g} mm/s", lambda v=v: speed(base, v), True)
     else:
-        why = "no explanation acts along the time history: their forces do not depend on it"
         if "hold_s" in given:
-            skipped[f"a {wanted_hold:g} s hold"] = why
+            skipped[f"a {wanted_hold:g} s hold"] = not_in_time
         for v in speeds:
-            skipped[f"a loading speed of {v:g} mm/s"] = why
+            skipped[f"a loading speed of {v:g} mm/s"] = not_in_time
     return out, skipped
 
 
@@ -418,6 +419,9 @@ def plan(data, *, radii=None, max_depth_mm: float | None = None, hold_s: float |
             raise ValueError(f"{', '.join(diagnose_options)}: options of a diagnosis, and a diagnosis was given")
         diag = data
     else:
+        if isinstance(data, (list, tuple)) and "curves" not in {f.name for f in dataclasses.fields(Diagnosis)}:
+            raise ValueError("several curves of one sample need the joint diagnosis, which this version does not "
+                             "have: give one curve")
         _check_reach(data, radii, max_depth_mm, diagnose_options)  # one line before minutes of diagnosis
         diag = diagnose(data, context=context, **diagnose_options)
         context = None
@@ -438,11 +442,13 @@ def plan(data, *, radii=None, max_depth_mm: float | None = None, hold_s: float |
     R = float(curves[0][0].radius_mm)
     radii = (R / 2, 2 * R) if radii is None else radii
     base = base_history(curves[0][0], _indentation(choice, curves[0][0], 0))
-    in_time = base.time_s is not None and any(acts_in_time(f.bound_model.effects) for f in rungs)
+    not_in_time = None
+    if base.time_s is None:
+        not_in_time = "the recorded curve has no time column"
+    elif not any(acts_in_time(f.bound_model.effects) for f in rungs):
+        not_in_time = "no explanation acts along the time history: their forces do not depend on it"
     candidates, skipped = _candidates(base, radii=radii, max_depth_mm=max_depth_mm, hold_s=hold_s, speeds=speeds,
-                                      in_time=in_time, given=given)
-    if base.time_s is None and (hold_s is not None or speeds):
-        skipped.update({"a hold or another speed": "the recorded curve has no time column"})
+                                      not_in_time=not_in_time, given=given)
 
     def force_key(f, k):  # the last rung's force comes with its Jacobian where that is computed
         return ("jacobian", "candidate", k) if undetermined and f is cur else (f.model, "force", k)
