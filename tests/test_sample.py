@@ -269,3 +269,30 @@ def test_the_forearm_like_pair_is_two_layers_explained_to_the_noise(tmp_path):
     d = _diagnose_pair(ms, tmp_path)
     assert d.verdict == "layer+layer", d.report()
     assert _within_noise(d), d.report()
+
+
+def test_plan_of_two_curves_adds_a_third_measurement_to_both(gallery_cache, diagnosis_surfaces):
+    """A relaxation time that a ramp with a short hold leaves undetermined, recorded twice (two curves of one
+    sample, each its own noise): the plan's candidates are fitted with both curves, so the same sphere once
+    more brings the standard deviations of the two curves to sqrt(2/3) of theirs (information 2 -> 3), while
+    a long hold determines the time better."""
+    from skin_indent import diagnose, plan
+    from skin_indent.diagnosis.planning import recorded
+
+    proto = Protocol.ramp(0.6, 60, 0.02, hold_s=5.0, hold_points=10)
+    theta = {"E_kPa": 8.0, "nu": 0.47, "g1": 0.3, "tau1_s": 60.0}
+    clean = Model(("viscoelastic",)).simulate(theta, protocol=proto, mesh="coarse")
+    ms = [measurement_from_arrays(clean.depth_mm, clean.force_mN + np.random.default_rng(s).normal(0, 0.05, 70),
+                                  clean.time_s, source=f"relaxing{s}", radius_mm=6.22) for s in (5, 6)]
+    ctx = _context(gallery_cache)
+    d = diagnose(ms, candidates=("viscoelastic",), in_loop=False, max_rungs=1, context=ctx)
+    assert d.verdict == "viscoelastic" and "tau1_s" in d.not_determined, d.report()
+    p = plan(d, radii=(), hold_s=120.0, context=ctx)
+    assert [c.source for c, _ in recorded(d)] == ["relaxing5", "relaxing6"]
+    by_kind = {a.candidate.kind: a for a in p.ranking}
+    same = by_kind["sphere"]
+    assert same.candidate.reference and same.error is None
+    # the third curve is like the first (its noise): the information of tau grows by the first curve's share
+    assert same.std["tau1_s"] < p.recorded_std["tau1_s"]
+    assert same.std["tau1_s"] == pytest.approx(p.recorded_std["tau1_s"] * math.sqrt(2 / 3), rel=0.1)
+    assert by_kind["hold"].std["tau1_s"] < same.std["tau1_s"], p.report()
