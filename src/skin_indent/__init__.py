@@ -21,7 +21,8 @@ Where things live
   uncertainty, identifiability).
 - ``skin_indent.fitting``: from a recorded curve to parameters (:func:`fit`), for the paper's
   half-space or any model, with values held and priors; the multistart fitter.
-- ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`): it orders and compares fits.
+- ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`): it orders and compares fits;
+  :func:`diagnose_many` diagnoses every curve of files, folders and force maps in parallel.
 - ``skin_indent.report``: every figure, table and page the package writes.
 - ``skin_indent.runtime``: context, executors, threads, atomic writes, JSON, provenance.
 - ``skin_indent.cli``: the ``skin-indent`` command.
@@ -71,6 +72,7 @@ _EXPORTS = {
     "surface_for": "skin_indent.fitting",
     "CurveFit": "skin_indent.fitting",
     "diagnose": "skin_indent.diagnosis",
+    "diagnose_many": "skin_indent.diagnosis",
     "Diagnosis": "skin_indent.diagnosis",
     "write_report": "skin_indent.report",
 }

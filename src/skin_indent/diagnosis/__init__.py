@@ -6,6 +6,8 @@ physical effect is missing, add it and watch the error fall.
 - :mod:`.identifiability`: what the curve determines, and which measurement would determine the rest;
 - :mod:`.evidence`: which measurement separates two candidates;
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
+- :mod:`.batch`: :func:`diagnose_many`, every curve of files, folders and force maps, in parallel,
+  one :class:`DiagnosisRow` each;
 - :mod:`.report`: figures and a self-contained HTML page.
 
 The curve is prepared by :func:`skin_indent.measurement.prepare` (as for fits), and the
@@ -15,6 +17,7 @@ candidate effects are the registered ones (:mod:`skin_indent.effects`).
 from ..fitting.multistart import MODEL_ERROR, Rung
 from ..inverse.residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
 from .workflow import Diagnosis, diagnose
+from .batch import DiagnosisBatch, DiagnosisRow, diagnose_many
 
-__all__ = ["MODEL_ERROR", "Diagnosis", "ResidualAnalysis", "Rung", "analyse_residuals", "describe_structure",
-           "diagnose", "effective_sample_size"]
+__all__ = ["MODEL_ERROR", "Diagnosis", "DiagnosisBatch", "DiagnosisRow", "ResidualAnalysis", "Rung",
+           "analyse_residuals", "describe_structure", "diagnose", "diagnose_many", "effective_sample_size"]
