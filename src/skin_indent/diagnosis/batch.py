@@ -36,9 +36,12 @@ from ..runtime.json_io import jsonable
 from ..runtime.provenance import provenance as make_provenance
 from .workflow import diagnose
 
-__all__ = ["DIAGNOSIS_COLUMNS", "DiagnosisBatch", "DiagnosisRow", "diagnose_many", "portable"]
+__all__ = ["DIAGNOSIS_COLUMNS", "FAILED", "DiagnosisBatch", "DiagnosisRow", "diagnose_many", "portable"]
 
 log = logging.getLogger(__name__)
+
+#: the outcome of a curve that could not be read, prepared or diagnosed (:attr:`DiagnosisRow.outcome`)
+FAILED = "failed"
 
 
 @dataclass(frozen=True)
@@ -127,9 +130,9 @@ class DiagnosisRow(CurveLocation):
         return not self.error and not self.flags
 
     @property
-    def missing(self) -> str:
-        """What the map shows for the curve: the verdict, ``"failed"`` for a curve not diagnosed."""
-        return "failed" if self.error else self.verdict
+    def outcome(self) -> str:
+        """What a table of verdicts or a map shows for the curve: its verdict, or :data:`FAILED`."""
+        return FAILED if self.error else self.verdict
 
     def to_dict(self) -> dict:
         """The row as a JSON-safe dict (without ``diagnosis``)."""
@@ -159,10 +162,11 @@ class DiagnosisBatch(BatchRows):
     columns = DIAGNOSIS_COLUMNS
 
     def verdicts(self) -> dict:
-        """``{verdict: number of curves}`` (``"failed"`` for the curves not diagnosed), most frequent first."""
+        """``{outcome: number of curves}``: each verdict, and :data:`FAILED` for the curves not diagnosed;
+        most frequent first."""
         counts: dict = {}
         for r in self:
-            counts[r.missing] = counts.get(r.missing, 0) + 1
+            counts[r.outcome] = counts.get(r.outcome, 0) + 1
         return dict(sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..diagnosis.batch import FAILED
 from ..effects import EFFECTS
 from ..measurement.scale import display_units
 from ..runtime.batch import one_line, row_provenance
@@ -28,11 +29,9 @@ from ._save import save_figure
 from .diagnosis_page import write_report
 from .labels import model_label
 
-__all__ = ["FAILED", "force_maps", "map_figure", "verdict_colours", "verdict_figure", "verdict_line",
+__all__ = ["force_maps", "map_figure", "verdict_colours", "verdict_figure", "verdict_line",
            "write_batch_figures", "write_curve_report"]
 
-#: what a figure shows for a curve that could not be diagnosed
-FAILED = "failed"
 #: fixed colours of the verdicts that are not an effect
 _SPECIAL = {"none": "#d9d9d9", "ambiguous": "#c994c7", "unexplained": "#252525", FAILED: "#ffffff"}
 #: tab10 without its grey (kept for "none"): the colours of single effects, in the vocabulary's order
@@ -41,10 +40,6 @@ _EFFECT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#d627
 #: combinations of effects (``offset+layer``): light and dark shades of tab20b, in order of appearance
 _COMBO_COLOURS = ("#393b79", "#637939", "#8c6d31", "#843c39", "#7b4173", "#6b6ecf", "#b5cf6b", "#e7ba52",
                   "#d6616b", "#ce6dbd")
-
-
-def _category(row) -> str:
-    return FAILED if row.error else row.verdict
 
 
 def _order(verdicts) -> list[str]:
@@ -155,7 +150,7 @@ def verdict_figure(rows, *, title: str | None = None):
 
     rows = list(rows)
     n = len(rows)
-    cats = [_category(r) for r in rows]
+    cats = [r.outcome for r in rows]
     colours = verdict_colours(cats)
     counts = {v: cats.count(v) for v in colours}
     fig = Figure(figsize=(min(16.0, max(7.5, 0.28 * n + 4.5)), 7.0), layout="constrained")
@@ -279,7 +274,7 @@ def map_figure(rows, *, title: str | None = None):
     u = display_units(radius)
     ix, iy, xc, yc, physical = _grid_of(rows, u.per_mm)
     shape = (yc.size, xc.size)
-    cats = [_category(r) for r in rows]
+    cats = [r.outcome for r in rows]
     colours = verdict_colours(cats)
     order = list(colours)
     counts = {v: cats.count(v) for v in order}
@@ -311,7 +306,7 @@ def map_figure(rows, *, title: str | None = None):
         ax_v.plot(X[failed], Y[failed], "x", color="0.35", markersize=7)
     if len(rows) <= 64:
         for r, i, j in zip(rows, ix, iy):
-            dark = _category(r) in ("unexplained",) or colours[_category(r)] in _COMBO_COLOURS[:5]
+            dark = r.outcome in ("unexplained",) or colours[r.outcome] in _COMBO_COLOURS[:5]
             ax_v.annotate(str(r.index), (xc[i], yc[j]), xytext=(0, 6), textcoords="offset points", ha="center",
                           fontsize=7, color="w" if dark else "k")
     entries = len(colours) + bool(np.any(prov))
