@@ -238,9 +238,9 @@ def test_cli_batch_of_a_force_map_and_a_bad_file(force_map, map_rows, gallery_ca
             "--candidates", "offset,stiffening", "--out", str(tmp_path / "v.tsv"), "-q"]
     assert main(argv) == 3  # a curve failed: --strict is the default of a batch
     out, err = capsys.readouterr()
-    assert out.strip().splitlines() == [*(verdict_line(r) for r in map_rows), f"broken.csv: error: {rows_error(bad)}",
-                                        f"7 curves: 2 failed; verdicts: failed 2, none 2, offset 2, stiffening 1; "
-                                        f"wrote {tmp_path / 'v.tsv'}"]
+    assert out.strip().splitlines() == [*(verdict_line(r) for r in map_rows), f"broken.csv: error: {_error_of(bad)}",
+                                        (f"7 curves: 2 failed; verdicts: failed 2, none 2, offset 2, stiffening 1; "
+                                         f"wrote {tmp_path / 'v.tsv'}")]
     assert err == ""
     prov = read_provenance(tmp_path / "v.tsv")
     assert prov["command"] == ["skin-indent", *argv] and "api" not in prov
@@ -268,7 +268,8 @@ def test_cli_batch_of_a_force_map_and_a_bad_file(force_map, map_rows, gallery_ca
     assert capsys.readouterr().out.startswith("data: map.h5[2] (100 points")
 
 
-def rows_error(path) -> str:
+def _error_of(path) -> str:
+    """The one-line error of the row of a file that cannot be read."""
     return diagnose_many(path).pop().error
 
 

@@ -71,7 +71,9 @@ def add_diagnose(sub):
                        help="write verdicts.png (verdict, misfit and E of the final model per curve), NAME_map.png "
                             "per force map (the same over the map, a pixel per curve) and each curve's HTML report "
                             "(DIR/NAME_INDEX/index.html) into DIR")
-    batch.add_argument("--index", type=int, default=None, help="diagnose only curve N (from 0) of each file")
+    batch.add_argument("--index", type=int, default=None, metavar="N",
+                       help="diagnose only curve N (from 0) of each file (one file: that curve alone, as one "
+                            "curve, unless --out)")
     batch.add_argument("--recursive", "-r", action="store_true",
                        help="search folders and their subfolders (default: the files directly in each folder)")
     batch.add_argument("--strict", action=argparse.BooleanOptionalAction, default=None,
