@@ -39,6 +39,8 @@ the modules, in the order data flows through them, are:
 - :mod:`.preparation`: :func:`prepare` and :class:`PreparedCurve`, the one way a
   recorded curve is made ready for fits and diagnosis (segments, baseline, contact
   point, window, binning, radius, scale checks).
+- :mod:`.curve_files` (imported from there): every curve of files, folders and force maps
+  with where it comes from, what batches of fits and diagnoses read.
 """
 
 from ._errors import MeasurementError
