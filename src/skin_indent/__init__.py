@@ -22,7 +22,8 @@ Where things live
 - ``skin_indent.fitting``: from a recorded curve to parameters (:func:`fit`), for the paper's
   half-space or any model, with values held and priors; the multistart fitter.
 - ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`): it orders and compares fits;
-  which measurement to make next (:func:`plan`).
+  which measurement to make next (:func:`plan`);
+  :func:`diagnose_many` diagnoses every curve of files, folders and force maps in parallel.
 - ``skin_indent.report``: every figure, table and page the package writes.
 - ``skin_indent.runtime``: context, executors, threads, atomic writes, JSON, provenance.
 - ``skin_indent.cli``: the ``skin-indent`` command.
@@ -72,6 +73,7 @@ _EXPORTS = {
     "surface_for": "skin_indent.fitting",
     "CurveFit": "skin_indent.fitting",
     "diagnose": "skin_indent.diagnosis",
+    "diagnose_many": "skin_indent.diagnosis",
     "Diagnosis": "skin_indent.diagnosis",
     "plan": "skin_indent.diagnosis",
     "Plan": "skin_indent.diagnosis",

@@ -19,7 +19,8 @@ EXIT_STATUS = ("Messages: the phases of long work (surface builds, batches, the 
                "Results go to stdout. "
                "Exit status: 0 done; 2 a user error (a bad option or value, a missing or malformed file, a "
                "model that does not converge), one line on stderr; 3 a curve failed or was flagged as not to be "
-               "trusted (fit: with --strict, the default for several curves; a single fit that fails always) or a "
+               "trusted (fit: with --strict, the default for several curves; a single fit that fails always), a curve "
+               "of a batch of diagnoses failed (diagnose: with --strict, the default of a batch) or a "
                "finite-element run of a surface build failed; 130 interrupted (Ctrl-C).")
 
 

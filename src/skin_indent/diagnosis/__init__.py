@@ -10,6 +10,8 @@ physical effect is missing, add it and watch the error fall.
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
 - :mod:`.planning`: :func:`plan`, the next measurement: the candidates ranked by how well they
   would separate the explanations a diagnosis left and determine its undetermined parameters;
+- :mod:`.batch`: :func:`diagnose_many`, every curve of files, folders and force maps, in parallel,
+  one :class:`DiagnosisRow` each;
 - :mod:`.report`: figures and a self-contained HTML page.
 
 The curve is prepared by :func:`skin_indent.measurement.prepare` (as for fits), and the
@@ -20,6 +22,8 @@ from ..fitting.multistart import MODEL_ERROR, Rung
 from ..inverse.residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
 from .planning import Plan, plan
 from .workflow import Diagnosis, diagnose
+from .batch import DiagnosisBatch, DiagnosisRow, diagnose_many
 
-__all__ = ["MODEL_ERROR", "Diagnosis", "Plan", "ResidualAnalysis", "Rung", "analyse_residuals", "describe_structure",
-           "diagnose", "effective_sample_size", "plan"]
+__all__ = ["MODEL_ERROR", "Diagnosis", "DiagnosisBatch", "DiagnosisRow", "Plan", "ResidualAnalysis", "Rung",
+           "analyse_residuals", "describe_structure", "diagnose", "diagnose_many", "effective_sample_size",
+           "plan"]

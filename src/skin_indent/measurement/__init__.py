@@ -40,7 +40,9 @@ the modules, in the order data flows through them, are:
   recorded curve is made ready for fits and diagnosis (segments, baseline, contact
   point, window, binning, radius, scale checks);
 - :mod:`.curve_set`: :class:`CurveSet`, several prepared curves of one sample (two
-  spheres, two speeds...), fitted and diagnosed together.
+  spheres, two speeds...), fitted and diagnosed together;
+- :mod:`.curve_files` (imported from there): every curve of files, folders and force maps
+  with where it comes from, what batches of fits and diagnoses read.
 """
 
 from ._errors import MeasurementError
