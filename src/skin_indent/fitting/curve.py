@@ -25,14 +25,12 @@ from ..inverse.residuals import analyse_residuals
 from ..measurement import PreparedCurve, prepare
 from ..measurement.scale import Quantity, UnitText, afm_scale, display_units, shown_in
 from ..measurement.preparation import SKIN_RADIUS_MM
-from .scale_checks import check_points, scale_flags
+from .scale_checks import MISFIT_FLAG, check_points, scale_flags  # noqa: F401 - MISFIT_FLAG read here
 from ..models import ComposedModel, HertzModel
 from ..runtime.json_io import jsonable
 
 #: a misfit above this many times the independent noise: the model does not describe the curve
 MISFIT_LIMIT = 3.0
-#: a misfit above this many times the independent noise: the modulus itself is not to be trusted (a flag)
-MISFIT_FLAG = 10.0
 #: a misfit below this fraction of the independent noise: the residual's pattern is not judged
 MISFIT_FLOOR = 0.5
 

@@ -22,12 +22,12 @@ from ..effects import CONTACT_POINT, WEIGHED, effect, instances
 from ..inverse import IdentificationResult
 from ..measurement import SEGMENTS, CurveSet, PreparedCurve, prepare
 from ..measurement.scale import Name, Quantity, UnitText
-from .curve import MISFIT_FLAG, CurveFit, quality, with_scale_flags
+from .curve import CurveFit, quality, with_scale_flags
 from .identification import hertz_modulus, run_method
 from .knowledge import DETERMINED_BY
 from .multistart import Fitter, evidence
 from .sample_fit import sample_fit_of
-from .scale_checks import check_points
+from .scale_checks import MISFIT_FLAG, check_points
 from ..models import HertzModel
 from ..models.composed import at_physical_limit
 from ..runtime.context import context_of

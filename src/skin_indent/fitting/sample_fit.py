@@ -22,10 +22,9 @@ from ..inverse import IdentificationResult
 from ..measurement.scale import display_units
 from ..models.composed import at_physical_limit
 from ..runtime.json_io import jsonable
-from .curve import MISFIT_FLAG
 from .knowledge import DETERMINED_BY
 from .multistart import evidence
-from .scale_checks import contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
+from .scale_checks import MISFIT_FLAG, contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
 
 
 @dataclass(frozen=True, eq=False)

@@ -53,6 +53,8 @@ __all__ = ["MODULUS_RANGE_KPA", "POINTS_PER_PARAMETER", "check_points", "contact
 MODULUS_RANGE_KPA = (1e-2, 1e5)
 #: points in contact per free parameter below which the fit is flagged (the soft minimum)
 POINTS_PER_PARAMETER = 5
+#: a misfit above this many times the independent noise: the modulus itself is not to be trusted (a flag)
+MISFIT_FLAG = 10.0
 #: parameters that are positions or offsets, not sizes: their sd is never compared with their value
 SIGNED = ("offset_mm", "baseline_mN")
 
