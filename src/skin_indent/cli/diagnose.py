@@ -1,9 +1,11 @@
 """``skin-indent diagnose``: where the model fails, which effect is missing, the ladder; one curve or many.
 
 One file with one curve (or ``--index N``) and no ``--out``: the diagnosis of that curve, as
-text, JSON (``--json``) and an HTML report (``--report``). Several files, a folder, a file with
-several curves (a force map) or ``--out``: a batch (:func:`skin_indent.diagnosis.diagnose_many`),
-one line and one TSV row per curve, figures with ``--plot``.
+text, JSON (``--json``) and an HTML report (``--report``). Several files with ``--sample``: the
+curves of ONE sample, diagnosed together (:func:`skin_indent.diagnosis.diagnose` with a list),
+reported as one curve is. Several files without it, a folder, a file with several curves (a force
+map) or ``--out``: a batch (:func:`skin_indent.diagnosis.diagnose_many`), one line and one TSV row
+per curve, figures with ``--plot``.
 """
 
 from __future__ import annotations
@@ -12,7 +14,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from .options import EXIT_FLAGGED, EXIT_OK, CLIError, command_provenance, positive_radius, progress_of
+from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, command_provenance, number_or_numbers, one_value, parse_fix,
+                      parse_priors, per_file, positive_radius, progress_of)
 
 #: what a batch is, as --help says it
 BATCH = ("Several files, a folder, a file with several curves (a force map) or --out: every curve is diagnosed "
@@ -28,10 +31,23 @@ def add_diagnose(sub):
                        description="Fit the neo-Hookean half-space to every segment of a measured curve, test "
                                    "whether the residual is noise, rank the missing effects by BIC, add the "
                                    "best and diagnose again on top until the residual is noise or nothing "
-                                   "helps (a ladder; --add builds rungs by hand). " + BATCH)
+                                   "helps (a ladder; --add builds rungs by hand). With --sample, several files are "
+                                   "curves of one sample (two spheres, two depths, two speeds, a ramp and a hold) "
+                                   "diagnosed together: the material shared, each curve with its own sphere, contact "
+                                   "point and noise. " + BATCH)
     p.add_argument("data", type=Path, nargs="+",
                    help="measurement CSV (time_s optional) or instrument file; several files, folders or a force "
-                        "map are diagnosed as a batch")
+                        "map are diagnosed as a batch (several files of one sample: --sample)")
+    p.add_argument("--sample", action="store_true",
+                   help="the files are curves of ONE sample measured several ways, diagnosed together: the ladder, "
+                        "BIC and verdict on all curves at once, every rung with the RMS of each curve")
+    p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                   help="hold a parameter you know, by the name results report (repeatable), e.g. --fix "
+                        "thickness_mm=1.2: in every model that has it")
+    p.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
+                   help="a Gaussian prior from an independent measurement (repeatable), e.g. --prior "
+                        "thickness_mm=1.2:0.1 (a dermis thickness from ultrasound): in every model that has it; the "
+                        "report says whether the data or the prior determined it")
     p.add_argument("--model", default="neo-hooke",
                    help="base model: neo-hooke, optionally with effects, e.g. neo-hooke+layer (same as --add)")
     p.add_argument("--candidates", default=",".join(EFFECTS),
@@ -44,12 +60,14 @@ def add_diagnose(sub):
     p.add_argument("--surfaces-only", action="store_true",
                    help="do not fit combinations that no response surface covers (two layers, layer and "
                         "stiffening) with the finite-element model in the loop (minutes each)")
-    p.add_argument("--noise", type=float, default=None,
-                   help="noise standard deviation, mN (default: from the data; in a batch, for every curve)")
+    p.add_argument("--noise", type=number_or_numbers, default=None, metavar="MN[,MN...]",
+                   help="noise standard deviation, mN (default: from the data; in a batch, for every curve); with "
+                        "--sample one per file")
     p.add_argument("--segments", default="approach,hold,retract",
                    help="kinds of motion to diagnose (default all; only trailing ones can be left out)")
-    p.add_argument("--radius", type=float, default=None,
-                   help="sphere radius, mm (default: the file's, else the skin sphere 6.22)")
+    p.add_argument("--radius", type=number_or_numbers, default=None, metavar="MM[,MM...]",
+                   help="sphere radius, mm (default: the file's # radius_mm/radius_um comment or instrument header, "
+                        "else the skin sphere 6.22); with --sample one per file, in order")
     p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="coarse",
                    help="mesh of the finite-element runs behind the surfaces (default coarse: within 0.03%% of "
                         "medium, below the 0.3%% model error that diagnosis allows)")
@@ -98,9 +116,16 @@ def _settings(args) -> dict:
     unknown = [s for s in segments if s not in SEGMENTS]
     if unknown or not segments:
         raise CLIError(f"--segments must be some of {','.join(SEGMENTS)}, got {args.segments!r}")
-    return {"candidates": [c.strip() for c in args.candidates.split(",") if c.strip()],
-            "add": [*model[1:], *args.add], "noise_mN": args.noise, "segments": segments,
-            "max_rungs": args.max_rungs, "in_loop": not args.surfaces_only, "mesh": args.mesh}
+    noise = per_file(args.noise, len(args.data), "--noise") if args.sample else one_value(args.noise, "--noise")
+    out = {"candidates": [c.strip() for c in args.candidates.split(",") if c.strip()],
+           "add": [*model[1:], *args.add], "noise_mN": noise, "segments": segments,
+           "max_rungs": args.max_rungs, "in_loop": not args.surfaces_only, "mesh": args.mesh}
+    fixed, priors = parse_fix(args.fix, any_name=True), parse_priors(args.prior)
+    if fixed:
+        out["fixed"] = fixed
+    if priors:
+        out["priors"] = priors
+    return out
 
 
 def _run_diagnose(args) -> int:
@@ -108,6 +133,9 @@ def _run_diagnose(args) -> int:
 
     settings = _settings(args)
     context = Context(workers=args.workers, scheduler=args.scheduler, progress=progress_of(args, off=args.json))
+    if args.sample:
+        return _diagnose_one(args, _sample_curves(args), settings, context)
+    args.radius = one_value(args.radius, "--radius")
     measurement = _one_curve(args)
     if measurement is not None:
         return _diagnose_one(args, measurement, settings, context)
@@ -129,6 +157,38 @@ def _one_curve(args):
     return measurement
 
 
+def _sample_curves(args) -> list:
+    """The curves of one sample (``--sample``): one curve per file (or ``--index N`` of each), each with
+    its own radius (``--radius`` one per file, else each file's)."""
+    from ..measurement import load_curves
+
+    given = [o for o, v in (("--out", args.out), ("--recursive", args.recursive or None)) if v is not None]
+    if given:
+        raise CLIError(f"{', '.join(given)}: for a batch of samples; --sample diagnoses the files as one sample "
+                       "(--report DIR writes its page)")
+    if len(args.data) < 2:
+        raise CLIError("--sample diagnoses several files as curves of one sample: give at least two")
+    missing = [str(path) for path in args.data if not path.exists()]
+    if missing:
+        raise CLIError(f"no such file or folder: {', '.join(missing)}")
+    folders = [str(path) for path in args.data if path.is_dir()]
+    if folders:
+        raise CLIError(f"{', '.join(folders)}: a folder is a batch of samples; --sample takes the files of one "
+                       "sample")
+    n = len(args.data)
+    radii = per_file(args.radius, n, "--radius")
+    out = []
+    for path, r in zip(args.data, radii if isinstance(radii, list) else [radii] * n):
+        found = load_curves(path, radius_mm=r)
+        if len(found) > 1 and args.index is None:
+            raise CLIError(f"{path}: {len(found)} curves; --index N picks the one of this sample")
+        k = args.index or 0
+        if not 0 <= k < len(found):
+            raise CLIError(f"{path}: --index {k} is out of range (the file has {len(found)} curve(s))")
+        out.append(found[k])
+    return out
+
+
 def _diagnose_one(args, measurement, settings, context) -> int:
     """One curve: the report (or JSON), the HTML page; errors as one line (exit 2)."""
     from ..diagnosis import diagnose
@@ -139,7 +199,8 @@ def _diagnose_one(args, measurement, settings, context) -> int:
         if value is not None:
             raise CLIError(f"{option}: for a batch (several curves or --out); one curve's figures: --report DIR")
     diag = diagnose(measurement, context=context, **settings)
-    prov = command_provenance(args, [args.data[0]], leave_out=("data", "report"), surface=diag.surfaces)
+    inputs = list(args.data) if args.sample else [args.data[0]]
+    prov = command_provenance(args, inputs, leave_out=("data", "report"), surface=diag.surfaces)
     if args.report is not None:
         page = write_report(diag, args.report, provenance=prov)
     if args.json:

@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, parse_fix, parse_priors, parse_start,
-                      parse_window, positive_radius, progress_of, command_provenance)
+from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, command_provenance, number_or_numbers, one_value, parse_fix,
+                      parse_priors, parse_start, parse_window, per_file, positive_radius, progress_of)
 
 def add_fit(sub):
     p = sub.add_parser("fit", help="identify E and nu from a measured curve",
@@ -38,8 +38,14 @@ def add_fit(sub):
                         "radius is rescaled by similarity")
     p.add_argument("--window", default=None,
                    help="indentation depth window MIN:MAX in mm past the contact point (e.g. 0.05:0.6)")
-    p.add_argument("--radius", type=float, default=None,
-                   help="sphere radius, mm (default: the file's, else the skin sphere 6.22; AFM: e.g. 0.0275)")
+    p.add_argument("--radius", type=number_or_numbers, default=None, metavar="MM[,MM...]",
+                   help="sphere radius, mm (default: the file's, else the skin sphere 6.22; AFM: e.g. 0.0275); with "
+                        "--sample one per file, in order")
+    p.add_argument("--sample", action="store_true",
+                   help="the files are curves of ONE sample measured several ways (two spheres, two depths, two "
+                        "speeds, a ramp and a hold), fitted together: the material's parameters shared, each curve "
+                        "with its own sphere, contact point (offset_mm[2]...) and noise (the model path: --model, "
+                        "default neo-hooke)")
     p.add_argument("--start", default=None, help="start values E,nu (default: a Hertz estimate at nu = 0.4)")
     p.add_argument("--model", default=None, metavar="neo-hooke[+EFFECT...]",
                    help="fit this model, e.g. neo-hooke+layer+layer (two bonded layers) or neo-hooke+stiffening: "
@@ -57,8 +63,9 @@ def add_fit(sub):
     p.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
                    help="a Gaussian prior from an independent measurement (repeatable), e.g. --prior "
                         "thickness_mm=1.2:0.1 (ultrasound); implies the model path (--model, default neo-hooke)")
-    p.add_argument("--noise", type=float, default=None,
-                   help="noise standard deviation of a raw sample, mN (default: from the data)")
+    p.add_argument("--noise", type=number_or_numbers, default=None, metavar="MN[,MN...]",
+                   help="noise standard deviation of a raw sample, mN (default: from the data); with --sample one per "
+                        "file")
     p.add_argument("--contact", choices=("auto", "fit", "origin"), default=None,
                    help="contact point: auto (fitted if the curve has a pre-contact baseline, else recorded depth "
                         "0; default), fit (always fitted), origin (recorded depth 0)")
@@ -122,6 +129,10 @@ def _run_fit(args) -> int:
 
     _apply_profile(args)
     positive_radius(args.radius)
+    if args.sample:
+        return _fit_sample(args)
+    args.radius = one_value(args.radius, "--radius")
+    args.noise = one_value(args.noise, "--noise")
     if args.workers is not None and args.scheduler is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
     missing = [str(path) for path in args.data if not path.exists()]
@@ -171,6 +182,85 @@ def _run_fit(args) -> int:
                                "curve(s))")
             return _fit_one(args, curves[args.index or 0], surface, fixed, window, x0, context)
     return _fit_batch(args, surface, fixed, window, x0, context)
+
+
+def _fit_sample(args) -> int:
+    """Several files, one sample: one model fitted to every curve together (one curve per file, or
+    ``--index N`` of each)."""
+    from ..fitting import fit
+    from ..fitting.model_fit import parse_model
+    from ..measurement import load_curves
+    from ..runtime.context import Context
+
+    given = [o for o, v in (("--out", args.out), ("--window", args.window), ("--start", args.start),
+                            ("--surface", args.surface), ("--tol", args.tol), ("--profile", args.profile),
+                            ("--save-profile", args.save_profile), ("--recursive", args.recursive or None),
+                            ("--free", args.free or None),
+                            ("--contact", None if args.contact == "auto" else args.contact),
+                            ("--method", None if args.method == "lsq" else args.method)) if v is not None]
+    if given:
+        raise CLIError(f"{', '.join(given)}: not taken with --sample (the curves are prepared as diagnose prepares "
+                       "them and fitted together by least squares; --plot DIR and --json write the result)")
+    if len(args.data) < 2:
+        raise CLIError("--sample fits several files as curves of one sample: give at least two")
+    missing = [str(path) for path in args.data if not path.exists()]
+    if missing:
+        raise CLIError(f"no such file or folder: {', '.join(missing)}")
+    folders = [str(path) for path in args.data if path.is_dir()]
+    if folders:
+        raise CLIError(f"{', '.join(folders)}: a folder is a batch of samples; --sample takes the files of one "
+                       "sample")
+    if args.scheduler is not None and args.workers is not None:
+        raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
+    model = args.model or "neo-hooke"
+    parse_model(model)  # one line for a bad model before any file is read
+    n = len(args.data)
+    radii, noise = per_file(args.radius, n, "--radius"), per_file(args.noise, n, "--noise")
+    curves = []
+    for path, r in zip(args.data, radii if isinstance(radii, list) else [radii] * n):
+        found = load_curves(path, radius_mm=r)
+        if len(found) > 1 and args.index is None:
+            raise CLIError(f"{path}: {len(found)} curves; --index N picks the one of this sample")
+        k = args.index or 0
+        if not 0 <= k < len(found):
+            raise CLIError(f"{path}: --index {k} is out of range (the file has {len(found)} curve(s))")
+        curves.append(found[k])
+    fixed, priors = parse_fix(args.fix, any_name=True), parse_priors(args.prior)
+    context = Context(workers=args.workers, scheduler=args.scheduler, progress=progress_of(args, off=args.json))
+    result = fit(curves, model=model, fixed=fixed or None, priors=priors or None, noise_mN=noise, context=context,
+                 mesh=args.mesh or "coarse")
+    settings = {"model": model, "radius_mm": radii, "noise_mN": noise, "fixed": fixed,
+                "priors": {k: list(v) for k, v in priors.items()}, "mesh": args.mesh or "coarse", "index": args.index,
+                "sample": True}
+    prov = command_provenance(args, list(args.data), settings)
+    return _sample_output(args, result, prov)
+
+
+def _sample_output(args, result, prov) -> int:
+    """Write the figure and table of a fit of several curves, print its report or JSON and the flags."""
+    from ..runtime.json_io import dumps
+    from ..runtime.provenance import with_provenance
+
+    if args.plot is not None:
+        from ..report.sample_figure import plot_sample_fit, write_sample_fit_csv
+
+        args.plot.mkdir(parents=True, exist_ok=True)
+        stem = "+".join(p.stem for p in args.data)
+        figure = plot_sample_fit(result, args.plot / f"{stem}.png", provenance=prov)
+        table = write_sample_fit_csv(result, args.plot / f"{stem}.csv", prov)
+    if args.json:
+        print(dumps(with_provenance(result.to_dict(), prov)))
+    else:
+        print(result.report())
+        if args.plot is not None:
+            print(f"wrote {figure} and {table}")
+    label = " + ".join(str(p) for p in args.data)
+    for flag in result.flags:
+        print(f"skin-indent fit: warning: {label}: {flag}", file=sys.stderr)
+    if not result.success:
+        print(f"skin-indent fit: warning: {label}: the fit failed", file=sys.stderr)
+        return EXIT_FLAGGED
+    return EXIT_FLAGGED if (args.strict and result.flags) else EXIT_OK
 
 
 def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -107,8 +108,35 @@ def parse_start(text):
 
 
 def positive_radius(radius):
-    if radius is not None and not (np.isfinite(radius) and radius > 0):
-        raise CLIError(f"--radius must be a positive number of mm, got {radius:g}")
+    for r in (radius if isinstance(radius, tuple) else (radius,)):
+        if r is not None and not (np.isfinite(r) and r > 0):
+            raise CLIError(f"--radius must be a positive number of mm, got {r:g}")
+
+
+def number_or_numbers(text: str):
+    """An option's value: one number, or several comma-separated (one per file of a sample: a tuple)."""
+    try:
+        values = tuple(float(x) for x in str(text).split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or comma-separated numbers, got {text!r}") from None
+    return values[0] if len(values) == 1 else values
+
+
+def per_file(value, n: int, option: str):
+    """``value`` of an option for ``n`` files of one sample: None, one for all, or one per file (a list)."""
+    if not isinstance(value, tuple):
+        return value
+    if len(value) != n:
+        raise CLIError(f"{option}: {len(value)} values for {n} files (give one, or one per file in order)")
+    return list(value)
+
+
+def one_value(value, option: str):
+    """``value`` where one number is needed (several values only go with --sample)."""
+    if isinstance(value, tuple):
+        raise CLIError(f"{option}: several values ({', '.join(f'{v:g}' for v in value)}) go with --sample, one per "
+                       "file of the sample; give one number")
+    return value
 
 
 def command_provenance(args, inputs, settings=None, surface=None, leave_out=()):

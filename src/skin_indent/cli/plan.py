@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .options import CLIError, command_provenance, positive_radius, progress_of
+from .options import (CLIError, command_provenance, number_or_numbers, parse_fix, parse_priors, per_file,
+                      positive_radius, progress_of)
 
 
 def positive_numbers(text: str | None, option: str, unit: str) -> tuple[float, ...] | None:
@@ -41,7 +42,9 @@ def add_plan(sub):
                                    "with the recorded curve, from finite-element "
                                    "predictions of the fitted models. Writes the predicted curve of each "
                                    "explanation for the best candidates (CSV, loadable as curves) and a figure.")
-    p.add_argument("data", type=Path, nargs="+", help="measurement CSV (time_s optional) or instrument file")
+    p.add_argument("data", type=Path, nargs="+", help="measurement CSV (time_s optional) or instrument file; several "
+                                                      "are curves of one sample, diagnosed together (as diagnose "
+                                                      "--sample), the candidates relative to the first")
     p.add_argument("--radii", default=None, metavar="MM,...",
                    help="sphere radii you own, mm, each pressed to the recorded depths (default: half and twice the "
                         "recorded radius; the recorded radius is always weighed: the measurement made again)")
@@ -63,9 +66,15 @@ def add_plan(sub):
     diag.add_argument("--surfaces-only", action="store_true",
                       help="do not fit combinations that no response surface covers with the finite-element model "
                            "in the loop")
-    diag.add_argument("--noise", type=float, default=None, help="noise standard deviation, mN (default: from the data)")
-    diag.add_argument("--radius", type=float, default=None,
-                      help="sphere radius of the recorded curve, mm (default: the file's, else 6.22)")
+    diag.add_argument("--noise", type=number_or_numbers, default=None, metavar="MN[,MN...]",
+                      help="noise standard deviation, mN (default: from the data); one per file for several")
+    diag.add_argument("--radius", type=number_or_numbers, default=None, metavar="MM[,MM...]",
+                      help="sphere radius of the recorded curve, mm (default: the file's, else 6.22); one per file "
+                           "for several")
+    diag.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                      help="hold a parameter you know (as diagnose --fix)")
+    diag.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
+                      help="a Gaussian prior from an independent measurement (as diagnose --prior)")
     diag.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="coarse",
                       help="mesh of the finite-element runs (default coarse)")
     diag.add_argument("--workers", type=int, default=None, help="local processes")
@@ -85,18 +94,24 @@ def _run_plan(args) -> int:
     speeds = positive_numbers(args.speeds, "--speeds", "mm/s") or ()
     positive(args.max_depth, "--max-depth", "mm")
     positive(args.hold, "--hold", "s")
-    positive(args.noise, "--noise", "mN")
+    n = len(args.data)
+    noise = per_file(args.noise, n, "--noise")
+    for v in (noise if isinstance(noise, list) else [noise]):
+        positive(v, "--noise", "mN")
+    radius = per_file(args.radius, n, "--radius")
+    fixed, priors = parse_fix(args.fix, any_name=True), parse_priors(args.prior)
     if args.max_rungs < 0:
         raise CLIError(f"--max-rungs must be >= 0, got {args.max_rungs}")
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
-    measurements = [load_curve(path, radius_mm=args.radius) for path in args.data]
+    measurements = [load_curve(path, radius_mm=r)
+                    for path, r in zip(args.data, radius if isinstance(radius, list) else [radius] * n)]
     candidates = [c.strip() for c in args.candidates.split(",") if c.strip()]
     context = Context(workers=args.workers, scheduler=args.scheduler, progress=progress_of(args, off=args.json))
     result = plan(measurements[0] if len(measurements) == 1 else measurements, radii=radii,
                   max_depth_mm=args.max_depth, hold_s=args.hold, speeds_mm_per_s=speeds, candidates=candidates,
-                  noise_mN=args.noise, max_rungs=args.max_rungs, in_loop=not args.surfaces_only, context=context,
-                  mesh=args.mesh)
+                  noise_mN=noise, max_rungs=args.max_rungs, in_loop=not args.surfaces_only, context=context,
+                  mesh=args.mesh, **({"fixed": fixed} if fixed else {}), **({"priors": priors} if priors else {}))
     prov = command_provenance(args, list(args.data), leave_out=("data", "out"))
     written = write_plan(result, args.out, provenance=prov)
     files = [str(p) for p in written["curves"]] + ([str(written["figure"])] if written["figure"] else [])

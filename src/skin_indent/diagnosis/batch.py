@@ -26,7 +26,7 @@ import math
 import os
 from dataclasses import dataclass, field, fields
 
-from ..effects import WEIGHED, effect, instances
+from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..fitting.model_fit import prepare_curve
 from ..measurement import SEGMENTS
 from ..measurement.curve_files import CurveLocation, expand_paths, read_curves
@@ -34,7 +34,7 @@ from ..runtime.batch import BatchRows, one_line, run_tasks
 from ..runtime.context import context_of
 from ..runtime.json_io import jsonable
 from ..runtime.provenance import provenance as make_provenance
-from .workflow import diagnose
+from .workflow import check_known, diagnose
 
 __all__ = ["DIAGNOSIS_COLUMNS", "FAILED", "DiagnosisBatch", "DiagnosisRow", "diagnose_many", "portable"]
 
@@ -243,7 +243,8 @@ def _check(candidates, add, max_rungs) -> None:
 def diagnose_many(paths, *, index: int | None = None, radius_mm: float | None = None, candidates=None, add=(),
                   noise_mN: float | None = None, segments=SEGMENTS, max_rungs: int = 3, in_loop: bool = True,
                   mesh: str = "coarse", context=None, progress: bool | None = None, keep_diagnoses: bool = False,
-                  on_row=None, recursive: bool = False, command=None) -> DiagnosisBatch:
+                  on_row=None, recursive: bool = False, command=None, fixed: dict | None = None,
+                  priors: dict | None = None) -> DiagnosisBatch:
     """Diagnose every curve of every file, in parallel; one :class:`DiagnosisRow` per curve.
 
     Parameters
@@ -278,6 +279,9 @@ def diagnose_many(paths, *, index: int | None = None, radius_mm: float | None = 
         may return a row to keep instead (with a flag, say), else the row is kept as it is.
     recursive : bool
         Search folders' subfolders too.
+    fixed, priors : dict, optional
+        What is known of every sample, held or weighed in every model that has the parameter
+        (as :func:`~skin_indent.diagnosis.diagnose`).
     command : sequence of str, optional
         The command line to record; default: the API call (``skin_indent.diagnose_many``).
 
@@ -301,11 +305,16 @@ def diagnose_many(paths, *, index: int | None = None, radius_mm: float | None = 
     """
     add = tuple(add)
     _check(candidates, add, max_rungs)
+    check_known(fixed, priors, (*(EFFECTS if candidates is None else candidates), *add), 1)
     ctx = context_of(context)
     files = expand_paths(paths, recursive=recursive)
     segments = tuple(segments)
     settings = {"candidates": None if candidates is None else tuple(candidates), "add": add, "noise_mN": noise_mN,
                 "segments": segments, "max_rungs": max_rungs, "in_loop": in_loop, "mesh": mesh, "radius_mm": radius_mm}
+    if fixed:
+        settings["fixed"] = dict(fixed)
+    if priors:
+        settings["priors"] = {k: tuple(v) for k, v in priors.items()}
     rows: list = []  # DiagnosisRow, or (location keywords, prepared curve) waiting for its diagnosis
     for where, m, error in read_curves(files, index=index, radius_mm=radius_mm):
         if error is None:

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ..models import JointModel
 from .measurements import (DEEPER, HOLD_S, Separation, acts_in_time, base_history, deeper, hold, model_of, predict,
                            separation, sphere)
 
@@ -116,7 +117,9 @@ def suggest_measurement(fitter, a, b) -> str:
     Parameters
     ----------
     fitter : Fitter
-        The diagnosis' fits (the recorded curve, its noise, the mesh, the context).
+        The diagnosis' fits (the recorded curve, its noise, the mesh, the context); for several
+        curves of one sample, the measurements are of the first curve (its sphere, its history,
+        its noise).
     a, b : Rung
         The diagnosis' choice and its rival.
 
@@ -126,9 +129,13 @@ def suggest_measurement(fitter, a, b) -> str:
         One sentence (without a final full stop).
     """
     ea, eb = _names(a, b)
+    data, model, x = fitter.data, a.bound_model, a.x
+    if isinstance(model, JointModel):  # several curves of one sample: measurements like the first curve
+        data = fitter.curves[0]
+        model, x = model.part(0, x)
     try:
-        h = np.asarray(a.bound_model.evaluate(a.x).h_mm, dtype=float)
-        candidates = weighed_candidates(fitter.data, h, (a, b))
+        h = np.asarray(model.evaluate(x).h_mm, dtype=float)
+        candidates = weighed_candidates(data, h, (a, b))
         rows = compare((a, b), candidates, fitter.noise_mN, mesh=fitter.mesh, context=getattr(fitter, "context", None))
     except ValueError:  # no measurement we can predict: none suggested
         rows = []

@@ -51,6 +51,7 @@ from ..effects import DEPTH, HISTORY, Model, instances
 from ..fitting.multistart import MODEL_ERROR
 from ..inverse.result import jacobian_covariance
 from ..measurement.preparation import MAX_DEPTH_RATIO
+from ..models.joint import split_name
 from ..models import ComposedModel
 from ..models.fe_core import FECore
 from ..runtime.executors import make_executor
@@ -368,7 +369,8 @@ def model_of(rung, *, jacobian: bool) -> tuple[tuple, dict]:
     """
     objs = rung.bound_model.effects
     names = tuple(e.name for e in objs if jacobian or e.stage != DEPTH)
-    theta = dict(rung.fit_parameters)
+    # a fit of several curves holds each curve's own contact point (offset_mm[2]): not the model's
+    theta = {k: v for k, v in rung.fit_parameters.items() if split_name(k)[1] is None}
     for e in objs:
         if e.stage == DEPTH:
             for k in e.fit_names:
@@ -484,17 +486,20 @@ def _stack(rung, blocks, free) -> tuple[np.ndarray, list]:
     own depth coordinates; and the index (in the rung's vector) of each rung column."""
     depth = {k for e in rung.bound_model.effects if e.stage == DEPTH for k in e.fit_names}
     names = list(rung.bound_model.parameter_names)
+    joint = any(split_name(n)[1] is not None for n in names)  # fitted to several curves: offset_mm[2]...
+    if joint:  # every curve's contact point is its own column; the shared coordinates are the rung's
+        free = [i for i in free if split_name(names[i])[1] is None]
     columns = [names[i] for i in free]
     extra = []
     for k, b in enumerate(blocks):
-        if b.own:
-            extra += [(k, n) for n in b.names if n in depth and names.index(n) in free]
+        if b.own or joint:
+            extra += [(k, n) for n in b.names if n in depth and (joint or names.index(n) in free)]
     width = len(columns) + len(extra)
     rows = []
     for k, b in enumerate(blocks):
         R = np.zeros((b.J.shape[0], width))
         for j, n in enumerate(b.names):
-            if b.own and (k, n) in extra:
+            if (k, n) in extra:
                 R[:, len(columns) + extra.index((k, n))] = b.J[:, j]
             elif n in columns:
                 R[:, columns.index(n)] = b.J[:, j]

@@ -37,7 +37,6 @@ the predicted curves and a figure are written by :func:`skin_indent.report.write
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field
@@ -46,6 +45,7 @@ import numpy as np
 
 from ..fitting.knowledge import prior_rows
 from ..fitting.model_fit import prepare_curve
+from ..models import JointModel
 from ..runtime.json_io import jsonable
 from ..runtime.provenance import data_identity, provenance
 from .identifiability import DETERMINED
@@ -99,6 +99,9 @@ def _indentation(rung, curve, i: int) -> np.ndarray:
     rung: its model's own depth stage for the curve it is bound to; for another curve of a joint
     fit, the recorded depth past the curve's contact point as prepared (origin, or first guess)."""
     model = rung.bound_model
+    if isinstance(model, JointModel):  # a joint fit: the curve's own model, with its own fitted contact point
+        part, x = model.part(i, rung.x)
+        return np.asarray(part.evaluate(x).h_mm, dtype=float)
     if getattr(model, "data", None) is curve:
         return np.asarray(model.evaluate(np.asarray(rung.x, dtype=float)).h_mm, dtype=float)
     origin = 0.0 if curve.contact_mode == "origin" else float(curve.contact_guess_mm)
@@ -419,9 +422,6 @@ def plan(data, *, radii=None, max_depth_mm: float | None = None, hold_s: float |
             raise ValueError(f"{', '.join(diagnose_options)}: options of a diagnosis, and a diagnosis was given")
         diag = data
     else:
-        if isinstance(data, (list, tuple)) and "curves" not in {f.name for f in dataclasses.fields(Diagnosis)}:
-            raise ValueError("several curves of one sample need the joint diagnosis, which this version does not "
-                             "have: give one curve")
         _check_reach(data, radii, max_depth_mm, diagnose_options)  # one line before minutes of diagnosis
         diag = diagnose(data, context=context, **diagnose_options)
         context = None

@@ -25,14 +25,12 @@ from ..inverse.residuals import analyse_residuals
 from ..measurement import PreparedCurve, prepare
 from ..measurement.scale import Quantity, UnitText, afm_scale, display_units, shown_in
 from ..measurement.preparation import SKIN_RADIUS_MM
-from .scale_checks import check_points, scale_flags
+from .scale_checks import MISFIT_FLAG, check_points, scale_flags  # noqa: F401 - MISFIT_FLAG read here
 from ..models import ComposedModel, HertzModel
 from ..runtime.json_io import jsonable
 
 #: a misfit above this many times the independent noise: the model does not describe the curve
 MISFIT_LIMIT = 3.0
-#: a misfit above this many times the independent noise: the modulus itself is not to be trusted (a flag)
-MISFIT_FLAG = 10.0
 #: a misfit below this fraction of the independent noise: the residual's pattern is not judged
 MISFIT_FLOOR = 0.5
 
@@ -279,9 +277,11 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
 
     Parameters
     ----------
-    data : Measurement or PreparedCurve
+    data : Measurement or PreparedCurve, or a list of them
         The whole curve as recorded (approach, hold, retract; any baseline; contact
         anywhere), or a curve already prepared with :func:`skin_indent.measurement.prepare`.
+        A list is several curves of one sample fitted together (the model path, default
+        ``model="neo-hooke"``): a :class:`~skin_indent.fitting.sample_fit.SampleFit`.
     surface : ResponseSurface, optional
         A neo-Hookean surface (any radius: rescaled by similarity); default found in the
         cache or built (``context``, ``mesh``).
@@ -343,6 +343,9 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     free = tuple(free or ())
     if set(free) - {"nu"}:
         raise ValueError(f"free takes nu (held at 0.5 by default at AFM scale), got {', '.join(free)}")
+    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
+    if several and model is None:
+        model = "neo-hooke"  # several curves of one sample: the model path fits them together
     if model is not None or priors:
         if free:
             raise ValueError("a fit of a chosen model fits nu unless it is held (--fix nu=...): free is not taken")

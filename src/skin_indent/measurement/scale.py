@@ -74,18 +74,29 @@ class DisplayUnits:
 
     def name(self, name: str) -> str:
         """A parameter's name with its unit suffix in these units: ``E_kPa`` -> ``E_Pa``,
-        ``offset_mm`` -> ``offset_um``; a name without a unit suffix as it is."""
+        ``offset_mm`` -> ``offset_um``, ``offset_mm[2]`` (curve 2's) -> ``offset_um[2]``; a name
+        without a unit suffix as it is."""
+        name, curve = _curve_suffix(name)
         for suffix, unit in (("_kPa", self.modulus), ("_mm", self.length), ("_mN", self.force)):
             if name.endswith(suffix):
-                return name[: -len(suffix)] + "_" + unit
-        return name
+                return name[: -len(suffix)] + "_" + unit + curve
+        return name + curve
 
     def factor(self, name: str) -> float:
         """The factor from a parameter's package unit (by its suffix) to these units."""
+        name, _ = _curve_suffix(name)
         for suffix, k in (("_kPa", self.per_kPa), ("_mm", self.per_mm), ("_mN", self.per_mN)):
             if name.endswith(suffix):
                 return k
         return 1.0
+
+
+def _curve_suffix(name: str) -> tuple[str, str]:
+    """``"offset_mm[2]"`` -> ``("offset_mm", "[2]")`` (a curve's own parameter of a joint fit)."""
+    if name.endswith("]") and "[" in name:
+        base, _, k = name.rpartition("[")
+        return base, "[" + k
+    return name, ""
 
 
 SKIN_UNITS = DisplayUnits("mm", "mN", "kPa", 1.0, 1.0, 1.0)

@@ -32,6 +32,7 @@ from ..runtime.json_io import dumps
 from .. import __version__
 from ._save import save_figure
 from .labels import line_styles, model_label, same_curve_as
+from .sample_figure import sample_diagnosis_figure
 
 FIGURES = ("fit.png", "residuals.png", "ladder.png")
 #: the page's template, in ``skin_indent/report/templates`` (package data)
@@ -147,10 +148,21 @@ def ladder_figure(diag, fig=None):
     fig = _canvas(fig, (9, 4.2))
     a1, a2 = fig.subplots(1, 2)
     names = [model_label(f.model).replace(" + ", "\n+ ") for f in models]  # one effect per line
-    a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
-    a1.axhline(diag.noise_mN, color="tab:green", ls="--", label="noise")
-    a1.axhline(1.3 * diag.noise_mN, color="tab:green", ls=":", label="1.3 x noise")
-    a1.set_ylabel("RMS residual (mN)")
+    if getattr(diag, "joint", False):  # several curves: each curve's RMS over its own noise, side by side
+        k, width = len(diag.curves), 0.8 / len(diag.curves)
+        x = np.arange(len(models))
+        for j, (c, noise) in enumerate(zip(diag.curves, diag.noises_mN)):
+            a1.bar(x + (j - (k - 1) / 2) * width, [f.curve_rms_mN[j] / noise for f in models], width,
+                   color=f"C{j}", label=f"curve {j + 1} (R = {c.radius_mm:g} mm)")
+        a1.set_xticks(x, names)
+        a1.axhline(1.0, color="tab:green", ls="--", label="noise")
+        a1.axhline(1.3, color="tab:green", ls=":", label="1.3 x noise")
+        a1.set_ylabel("RMS residual / the curve's noise")
+    else:
+        a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
+        a1.axhline(diag.noise_mN, color="tab:green", ls="--", label="noise")
+        a1.axhline(1.3 * diag.noise_mN, color="tab:green", ls=":", label="1.3 x noise")
+        a1.set_ylabel("RMS residual (mN)")
     a1.set_title("misfit: down to the noise is enough", fontsize=9)
     a1.legend(fontsize=8)
     a2.bar(names, [f.bic for f in models], color="tab:purple")
@@ -168,7 +180,11 @@ def figures(diag, out_dir, provenance: dict | None = None) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     prov = provenance or getattr(diag, "provenance", None)
     paths = []
-    for name, draw in zip(FIGURES, (fit_figure, residual_figure, ladder_figure)):
+    draws = (fit_figure, residual_figure, ladder_figure)
+    names = FIGURES
+    if getattr(diag, "joint", False):  # several curves: each with the last rung and every rung's residual
+        draws, names = (sample_diagnosis_figure, ladder_figure), ("fit.png", "ladder.png")
+    for name, draw in zip(names, draws):
         paths.append(out / name)
         save_figure(draw(diag), paths[-1], prov)
     return paths
@@ -237,17 +253,25 @@ def page_context(diag, figure_paths=()) -> dict:
     dict
     """
     rows = []
+    joint = getattr(diag, "joint", False)
     for f in _models(diag):
         fe = diag.std_source if f is diag.current else {}
         params = [{"name": k, "value": _fmt(v), "std": _fmt(f.std.get(k, math.nan)), "fe": fe.get(k) == FROM_FE}
                   for k, v in f.parameters.items()]
-        rows.append({"model": f.model, "rms": f"{f.rms_mN:.4g}", "bic": f"{f.bic:.1f}", "white": bool(f.white),
+        rms = ", ".join(f"{v:.4g}" for v in f.curve_rms_mN) if joint else f"{f.rms_mN:.4g}"
+        rows.append({"model": f.model, "rms": rms, "bic": f"{f.bic:.1f}", "white": bool(f.white),
                      "parameters": params, "structure": f.structure})
+    sample = [{"number": k + 1, "source": str(c.source), "points": c.n, "radius": f"{c.radius_mm:g}",
+               "noise": f"{s:.4g}", "noise_source": w}
+              for k, (c, s, w) in enumerate(zip(diag.curves, diag.noises_mN, diag.noise_sources))] if joint else []
     return {
-        "source": str(diag.data.source), "name": Path(diag.data.source).name, "verdict": diag.verdict,
+        "source": str(diag.data.source), "name": " + ".join(Path(c.source).name for c in diag.curves) if joint
+        else Path(diag.data.source).name, "verdict": diag.verdict, "sample": sample,
         "provisional": bool(diag.provisional), "sentence": diag.sentence(), "untried": list(diag.untried.items()),
-        "noise": f"{diag.noise_mN:.4g}", "noise_source": diag.noise_source, "points": diag.data.n,
-        "binned": diag.data.binned, "n_effective": f"{diag.n_effective:.1f}", "radius": f"{diag.radius_mm:g}",
+        "noise": ", ".join(f"{v:.4g}" for v in diag.noises_mN) if joint else f"{diag.noise_mN:.4g}",
+        "noise_source": diag.noise_source, "points": diag.data.n,
+        "binned": 1 if joint else diag.data.binned, "n_effective": f"{diag.n_effective:.1f}",
+        "radius": ", ".join(f"{c.radius_mm:g}" for c in diag.curves) if joint else f"{diag.radius_mm:g}",
         "models": rows, "not_detectable": list(diag.not_detectable.items()),
         "fe_note": FROM_FE if FROM_FE in diag.std_source.values() else "",
         "figures": [{"name": p.name, "alt": p.stem, "base64": base64.b64encode(p.read_bytes()).decode()}

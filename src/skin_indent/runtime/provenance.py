@@ -306,7 +306,10 @@ def records_call(api: str, data: str = "data", leave_out: tuple = ("context",)):
                     settings.update({k: v for k, v in value.items() if k not in leave_out})
                 else:
                     settings[name] = value
-            inputs = [data_identity(bound[data])] if data in bound else []
+            given = bound.get(data)
+            several = isinstance(given, (list, tuple)) or hasattr(given, "curves")  # curves of one sample
+            inputs = [] if data not in bound else ([data_identity(m) for m in given] if several
+                                                   else [data_identity(given)])
             used = getattr(result, "surface", None) or getattr(result, "surfaces", None) or None
             record = provenance(inputs=inputs, settings=settings, surface=used, api=api)
             return dataclasses.replace(result, provenance=record)
