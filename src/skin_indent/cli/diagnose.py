@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, command_provenance, number_or_numbers, one_value, parse_fix,
-                      parse_priors, per_file, positive_radius, progress_of)
+                      parse_priors, per_file, positive_radius, progress_of, sample_curves)
 
 #: what a batch is, as --help says it
 BATCH = ("Several files, a folder, a file with several curves (a force map) or --out: every curve is diagnosed "
@@ -158,35 +158,12 @@ def _one_curve(args):
 
 
 def _sample_curves(args) -> list:
-    """The curves of one sample (``--sample``): one curve per file (or ``--index N`` of each), each with
-    its own radius (``--radius`` one per file, else each file's)."""
-    from ..measurement import load_curves
-
+    """The curves of one sample (``--sample``: :func:`~.options.sample_curves`)."""
     given = [o for o, v in (("--out", args.out), ("--recursive", args.recursive or None)) if v is not None]
     if given:
         raise CLIError(f"{', '.join(given)}: for a batch of samples; --sample diagnoses the files as one sample "
                        "(--report DIR writes its page)")
-    if len(args.data) < 2:
-        raise CLIError("--sample diagnoses several files as curves of one sample: give at least two")
-    missing = [str(path) for path in args.data if not path.exists()]
-    if missing:
-        raise CLIError(f"no such file or folder: {', '.join(missing)}")
-    folders = [str(path) for path in args.data if path.is_dir()]
-    if folders:
-        raise CLIError(f"{', '.join(folders)}: a folder is a batch of samples; --sample takes the files of one "
-                       "sample")
-    n = len(args.data)
-    radii = per_file(args.radius, n, "--radius")
-    out = []
-    for path, r in zip(args.data, radii if isinstance(radii, list) else [radii] * n):
-        found = load_curves(path, radius_mm=r)
-        if len(found) > 1 and args.index is None:
-            raise CLIError(f"{path}: {len(found)} curves; --index N picks the one of this sample")
-        k = args.index or 0
-        if not 0 <= k < len(found):
-            raise CLIError(f"{path}: --index {k} is out of range (the file has {len(found)} curve(s))")
-        out.append(found[k])
-    return out
+    return sample_curves(args, "diagnoses")
 
 
 def _diagnose_one(args, measurement, settings, context) -> int:

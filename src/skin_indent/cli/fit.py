@@ -7,7 +7,8 @@ import sys
 from pathlib import Path
 
 from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, command_provenance, number_or_numbers, one_value, parse_fix,
-                      parse_priors, parse_start, parse_window, per_file, positive_radius, progress_of)
+                      parse_priors, parse_start, parse_window, per_file, positive_radius, progress_of, sample_curves)
+
 
 def add_fit(sub):
     p = sub.add_parser("fit", help="identify E and nu from a measured curve",
@@ -189,7 +190,6 @@ def _fit_sample(args) -> int:
     ``--index N`` of each)."""
     from ..fitting import fit
     from ..fitting.model_fit import parse_model
-    from ..measurement import load_curves
     from ..runtime.context import Context
 
     given = [o for o, v in (("--out", args.out), ("--window", args.window), ("--start", args.start),
@@ -201,30 +201,13 @@ def _fit_sample(args) -> int:
     if given:
         raise CLIError(f"{', '.join(given)}: not taken with --sample (the curves are prepared as diagnose prepares "
                        "them and fitted together by least squares; --plot DIR and --json write the result)")
-    if len(args.data) < 2:
-        raise CLIError("--sample fits several files as curves of one sample: give at least two")
-    missing = [str(path) for path in args.data if not path.exists()]
-    if missing:
-        raise CLIError(f"no such file or folder: {', '.join(missing)}")
-    folders = [str(path) for path in args.data if path.is_dir()]
-    if folders:
-        raise CLIError(f"{', '.join(folders)}: a folder is a batch of samples; --sample takes the files of one "
-                       "sample")
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
     model = args.model or "neo-hooke"
     parse_model(model)  # one line for a bad model before any file is read
     n = len(args.data)
     radii, noise = per_file(args.radius, n, "--radius"), per_file(args.noise, n, "--noise")
-    curves = []
-    for path, r in zip(args.data, radii if isinstance(radii, list) else [radii] * n):
-        found = load_curves(path, radius_mm=r)
-        if len(found) > 1 and args.index is None:
-            raise CLIError(f"{path}: {len(found)} curves; --index N picks the one of this sample")
-        k = args.index or 0
-        if not 0 <= k < len(found):
-            raise CLIError(f"{path}: --index {k} is out of range (the file has {len(found)} curve(s))")
-        curves.append(found[k])
+    curves = sample_curves(args, "fits")
     fixed, priors = parse_fix(args.fix, any_name=True), parse_priors(args.prior)
     context = Context(workers=args.workers, scheduler=args.scheduler, progress=progress_of(args, off=args.json))
     result = fit(curves, model=model, fixed=fixed or None, priors=priors or None, noise_mN=noise, context=context,

@@ -161,3 +161,35 @@ def missing_subcommand(parser) -> int:
     parser.print_help(sys.stderr)
     return EXIT_USER_ERROR
 
+
+def sample_curves(args, verb: str) -> list:
+    """The curves of one sample (``--sample``): one curve per file (or ``--index N`` of each), each with its
+    own sphere radius (``--radius`` one per file, else each file's); one-line errors for fewer than two
+    files, a missing file, a folder (a batch of samples) or a file of several curves without ``--index``.
+
+    ``verb``: what the command does with them (``"fits"``, ``"diagnoses"``), for the messages.
+    """
+    from ..measurement import load_curves
+
+    if len(args.data) < 2:
+        raise CLIError(f"--sample {verb} several files as curves of one sample: give at least two")
+    missing = [str(path) for path in args.data if not path.exists()]
+    if missing:
+        raise CLIError(f"no such file or folder: {', '.join(missing)}")
+    folders = [str(path) for path in args.data if path.is_dir()]
+    if folders:
+        raise CLIError(f"{', '.join(folders)}: a folder is a batch of samples; --sample takes the files of one "
+                       "sample")
+    n = len(args.data)
+    radii = per_file(args.radius, n, "--radius")
+    out = []
+    for path, r in zip(args.data, radii if isinstance(radii, list) else [radii] * n):
+        found = load_curves(path, radius_mm=r)
+        if len(found) > 1 and args.index is None:
+            raise CLIError(f"{path}: {len(found)} curves; --index N picks the one of this sample")
+        k = args.index or 0
+        if not 0 <= k < len(found):
+            raise CLIError(f"{path}: --index {k} is out of range (the file has {len(found)} curve(s))")
+        out.append(found[k])
+    return out
+
