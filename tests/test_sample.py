@@ -238,7 +238,8 @@ def _within_noise(d):
 
 @pytest.mark.slow
 def test_two_layers_seen_with_two_spheres_are_two_layers(tmp_path):
-    theta = {"E_kPa": 15.0, "nu": 0.45, "thickness_mm": 1.0, "ratio": 0.2, "thickness2_mm": 2.0, "ratio2": 1.0}
+    # a dermis (1 mm, 15 kPa) over a hypodermis (2 mm, 3 kPa) over muscle three times stiffer than the hypodermis
+    theta = {"E_kPa": 15.0, "nu": 0.45, "thickness_mm": 1.0, "ratio": 0.2, "thickness2_mm": 2.0, "ratio2": 3.0}
     ms = [curve(("layer", "layer"), theta, R, seed=31 + i, name="twolayers") for i, R in enumerate((6.22, 2.0))]
     d = _diagnose_pair(ms, tmp_path)
     assert d.verdict == "layer+layer", d.report()
