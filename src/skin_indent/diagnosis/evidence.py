@@ -15,9 +15,14 @@ from ..response_surface import make_executor
 HOLD_S = 30.0
 
 
-def _model_force(effects: tuple, radius_mm: float, theta: dict, depth_mm: float) -> np.ndarray:
-    """Force (mN) of a forward FE run (coarse mesh) of ``effects`` with ``theta`` (a worker task)."""
-    return Model(effects, radius_mm).simulate(theta, depth_mm, mesh="coarse").force_mN
+def _model_force(effects: tuple, radius_mm: float, theta: dict, depth_mm: float, cache_dir=None) -> np.ndarray:
+    """Force (mN) of a forward FE run (coarse mesh) of ``effects`` with ``theta`` (a worker task), read from
+    or kept in the run cache of ``cache_dir`` (:class:`~skin_indent.response_surface.RunCache`; default
+    ``$SKIN_INDENT_CACHE`` or ``~/.cache/skin_indent``, where the command line keeps everything)."""
+    from ..models.effect_surface import model_force
+    from ..response_surface import RunCache
+
+    return model_force(effects, radius_mm, theta, depth_mm, mesh="coarse", run_cache=RunCache(cache_dir))
 
 
 def _run_task(a, radius_mm, depth_mm) -> tuple:

@@ -51,13 +51,15 @@ mN, with the muscle a half-space as in the truth, whose deep interface makes eac
 from __future__ import annotations
 
 import contextlib
+import sys
 import time
 import weakref
 
 import numpy as np
 
 from ..effects import ELASTIC, ForwardSpec, instances
-from ..response_surface import nice_depth
+from ..response_surface import RunFailed, nice_depth
+from ..response_surface.run_cache import module_digest
 from ..effects.base import stack_parameters
 from ..runtime.executors import available_cpus, make_executor
 
@@ -72,6 +74,8 @@ MORPH_RANGE = (0.8, 1.25)
 #: spline between them is within 1.4e-3 of direct solves at 0.05 mm and 5e-4 beyond 0.1 mm
 #: (12, the default of simulate for a half-space, gives 2.8e-3 there; 30 gives 1.1e-3 at 1.3x the cost)
 INCREMENTS = 20
+#: the first solved depth of a run, as a fraction of its ceiling
+FIRST = 0.01
 #: solved depths of the runs within the iterations of a fit (:meth:`FECore.iterating`); the
 #: fit's result (force, Jacobian, covariance) comes from a run of :data:`INCREMENTS` at its
 #: end. Against runs of 40 on the coarse mesh (100 depths to 0.6 mm; one layer, two layers,
@@ -98,11 +102,20 @@ SCREEN_INCREMENTS, SCREEN_RTOL, SCREEN_FIRST = 8, 1e-5, 0.05
 SECANT_REFRESH = 3
 
 
+def solved_depths(sample, ceiling_mm: float, increments: int = INCREMENTS, first: float = FIRST) -> np.ndarray:
+    """The depths (mm) a unit run solves: ``increments`` geometric depths from ``first`` times the
+    ceiling to the ceiling, and a layered sample's depths near a rigid base
+    (:meth:`~skin_indent.mechanics.layers.LayeredSample.squeeze_depths_mm`)."""
+    depths = np.geomspace(first * ceiling_mm, ceiling_mm, increments)
+    squeeze = getattr(sample, "squeeze_depths_mm", None)  # a layer squeezed on a rigid base: depths near it
+    if squeeze is not None:
+        depths = np.union1d(depths, squeeze(ceiling_mm))
+    return depths
+
+
 def _solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float, sensitivities: bool,
-                increments: int = INCREMENTS, first: float = 0.01):
-    """One unit-modulus run to the ceiling (a worker task): ``increments`` geometric depths
-    from ``first`` times the ceiling, and a layered sample's depths near a rigid base
-    (:meth:`~skin_indent.mechanics.layers.LayeredSample.squeeze_depths_mm`).
+                increments: int = INCREMENTS, first: float = FIRST):
+    """One unit-modulus run to the ceiling (a worker task) at the depths of :func:`solved_depths`.
 
     Returns the solved depths (mm), the forces there (mN) and, with ``sensitivities``,
     their derivatives with respect to every material parameter (direct differentiation,
@@ -111,13 +124,42 @@ def _solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float,
     from ..mechanics.contact import SphericalIndenter
     from ..simulate import simulate
 
-    depths = np.geomspace(first * ceiling_mm, ceiling_mm, increments)
-    squeeze = getattr(sample, "squeeze_depths_mm", None)  # a layer squeezed on a rigid base: depths near it
-    if squeeze is not None:
-        depths = np.union1d(depths, squeeze(ceiling_mm))
+    depths = solved_depths(sample, ceiling_mm, increments, first)
     curve = simulate(sample, SphericalIndenter(radius_mm), depths, mesh=imesh, rtol=rtol, solve_at_outputs=True,
                      sensitivities=sensitivities)
     return curve.solved_depth_mm, curve.solved_force_mN, curve.sensitivities
+
+
+def _as_arrays(run) -> dict:
+    """A unit run ``(depths, forces, sensitivities or None)`` as the named arrays the run cache keeps."""
+    h, F, S = run
+    out = {"depth_mm": np.asarray(h, dtype=float), "force_mN": np.asarray(F, dtype=float)}
+    for (k, name), values in (S or {}).items():
+        out[f"sensitivity/{int(k)}/{name}"] = np.asarray(values, dtype=float)
+    return out
+
+
+def _from_arrays(arrays: dict, sensitivities: bool) -> tuple:
+    """The unit run of :func:`_as_arrays`' arrays (the sensitivities None unless they were asked for)."""
+    S = {}
+    for name, values in arrays.items():
+        if name.startswith("sensitivity/"):
+            _, k, law_parameter = name.split("/", 2)
+            S[(int(k), law_parameter)] = values
+    return arrays["depth_mm"], arrays["force_mN"], S if sensitivities else None
+
+
+def mesh_digest(imesh) -> str:
+    """SHA-256 (hex) of a mesh's vertices, triangles and design sizes: what a run's key holds of its mesh."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in (imesh.mesh.p, imesh.mesh.t):
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    h.update(repr((float(imesh.contact_radius_mm), float(imesh.surface_size_mm), float(imesh.extent_mm))).encode())
+    return h.hexdigest()
 
 
 def material_parameters(sample) -> dict:
@@ -190,15 +232,20 @@ class FECore:
     workers : int, optional
         Local processes for :meth:`prefetch` (default: the available cores, at most 2 per
         Jacobian's worth of runs is typical).
+    run_cache : RunCache, optional
+        Where finished runs are kept across processes
+        (:class:`~skin_indent.response_surface.RunCache`): a run found there is read, not
+        solved. Default None: runs are kept in this object only.
 
     Attributes
     ----------
     runs : int
-        Finite-element runs made so far; ``run_time_s`` their wall time.
+        Finite-element runs used so far (solved here or read from ``run_cache``); ``made`` of
+        them solved here, ``cached`` read; ``run_time_s`` the wall time of both.
     """
 
     def __init__(self, effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: float, mesh: str = "coarse",
-                 workers: int | None = None):
+                 workers: int | None = None, run_cache=None):
 
         self.effects = tuple(e for e in instances(effects) if e.stage == ELASTIC)
         self.radius_mm = float(radius_mm)
@@ -220,7 +267,8 @@ class FECore:
         self._secant, self._last = False, None
         self._ref = None
         self._executor = None
-        self.runs = 0
+        self.run_cache = run_cache
+        self.runs = self.made = self.cached = 0
         self.run_time_s = 0.0
 
     @property
@@ -339,7 +387,7 @@ class FECore:
     def _run(self, rests, sensitivities: bool = False) -> None:
         if self._cancelled:
             raise RuntimeError("the finite-element fit was cancelled")
-        todo = {}
+        todo, references = {}, {}
         failed = None
         for rest in rests:
             key = self._key(rest)
@@ -349,26 +397,20 @@ class FECore:
             have = self._curves.get(key)
             if (have is None or (sensitivities and have[2] is None)) and key not in todo:
                 sample = self.spec(rest).sample(merge=False)
+                imesh = self._mesh(sample)
+                references[key] = None if self._ref[1] is None else [float(v) for v in self._ref[1]]
                 if self._screening:
-                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, self._mesh(sample), SCREEN_RTOL, False,
+                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, imesh, SCREEN_RTOL, False,
                                  SCREEN_INCREMENTS, SCREEN_FIRST)
                 else:
-                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, self._mesh(sample), RTOL, sensitivities,
-                                 FIT_INCREMENTS if self._secant else INCREMENTS)
+                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, imesh, RTOL, sensitivities,
+                                 FIT_INCREMENTS if self._secant else INCREMENTS, FIRST)
         t0 = time.perf_counter()
-        if len(todo) == 1 and not self._in_workers:
-            (key, args), = todo.items()
-            try:
-                self._curves[key] = _solve_unit(*args)
-            except Exception as err:  # noqa: BLE001 - a run that does not converge is a failed evaluation
-                self._failed[key] = err
-                failed = failed or (key, err)
-        elif todo:
-            for key, value, error in self._pool().imap_unordered(_solve_unit, todo.items()):
-                if error is not None:
-                    self._failed[key] = error
-                    failed = failed or (key, error)
-                    continue
+        for key, value in self._solve(todo, references).items():
+            if isinstance(value, BaseException):
+                self._failed[key] = value
+                failed = failed or (key, value)
+            else:
                 self._curves[key] = value
         self.runs += len(todo)
         self.run_time_s += time.perf_counter() - t0
@@ -376,6 +418,67 @@ class FECore:
             key, err = failed
             values = ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.parameter_names[1:], key[-len(rests[0]):]))
             raise ValueError(f"finite-element run failed at {values}: {str(err).splitlines()[0]}")
+
+    def _compute(self, todo: dict, keys: list):
+        """Solve the runs ``keys`` of ``todo``: ``(key, run, error)`` as they finish (one alone here,
+        unless :meth:`in_workers`; several in the worker processes)."""
+        if len(keys) == 1 and not self._in_workers:
+            key = keys[0]
+            try:
+                run = _solve_unit(*todo[key])
+            except Exception as err:  # noqa: BLE001 - a run that does not converge is a failed evaluation
+                yield key, None, err
+            else:
+                yield key, run, None
+        elif keys:
+            yield from self._pool().imap_unordered(_solve_unit, ((key, todo[key]) for key in keys))
+
+    def run_parts(self, args, reference_mm) -> dict:
+        """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of the run of :func:`_solve_unit`
+        arguments ``args`` on a mesh morphed from one built for the interfaces ``reference_mm`` (None:
+        a half-space): the sample as built, the sphere radius, the depths solved, the mesh (its name,
+        that reference and a digest of its nodes), the Newton tolerance, the sensitivities or not, and
+        the digest of this module."""
+        sample, radius_mm, ceiling_mm, imesh, rtol, sensitivities, increments, first = args
+        reference = None if reference_mm is None else [float(v) for v in reference_mm]
+        return {"run": "skin_indent.models.fe_core unit-modulus run", "code": module_digest(sys.modules[__name__]),
+                "sample": repr(sample), "radius_mm": float(radius_mm), "ceiling_mm": float(ceiling_mm),
+                "depth_mm": solved_depths(sample, ceiling_mm, increments, first).tolist(),
+                "mesh": self.mesh_name, "mesh_reference_mm": reference,
+                "mesh_rigid_base": bool(getattr(sample, "rigid_base", False)), "mesh_sha256": mesh_digest(imesh),
+                "rtol": float(rtol), "sensitivities": bool(sensitivities)}
+
+    def _solve(self, todo: dict, references: dict) -> dict:
+        """``{key: run or exception}`` of the runs ``todo`` (``{key: arguments of _solve_unit}``, their
+        meshes morphed from ``references[key]``): read from the run cache where it has them (a run with
+        sensitivities also serves one without), else solved (and kept there)."""
+        if not todo:
+            return {}
+        if self.run_cache is None:
+            out = {key: value if error is None else error for key, value, error in self._compute(todo, list(todo))}
+            self.made += len(out)
+            return out
+        out, parts = {}, {}
+        for key, args in todo.items():
+            parts[key] = self.run_parts(args, references[key])
+            if not args[5]:  # without sensitivities: the run with them serves too
+                with contextlib.suppress(RunFailed):
+                    arrays = self.run_cache.load(self.run_cache.key({**parts[key], "sensitivities": True}))
+                    if arrays is not None:
+                        out[key] = _from_arrays(arrays, False)
+        rest = {key: p for key, p in parts.items() if key not in out}
+        before = dict(self.run_cache.counts)
+
+        def compute(keys):
+            for key, run, error in self._compute(todo, keys):
+                yield key, None if run is None else _as_arrays(run), error
+
+        for key, value in self.run_cache.get_or_compute_many(rest, compute).items():
+            out[key] = value if isinstance(value, BaseException) else _from_arrays(value, todo[key][5])
+        solved = sum(self.run_cache.counts[k] - before[k] for k in ("computed", "failed"))
+        self.made += solved
+        self.cached += len(todo) - solved
+        return out
 
     def unit_force(self, depth_mm, rest, *, sensitivities: bool = True) -> np.ndarray:
         """Force (mN) at E = 1 kPa of the core parameters after E, at depths 0 < h <= ceiling (mm).
