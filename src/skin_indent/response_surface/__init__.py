@@ -74,13 +74,14 @@ from ..runtime.executors import (DASK_MISSING, DaskExecutor, Executor, InProcess
 from ._grid import NICE_DEPTHS, SurfaceGrid, nice_depth, parse_range
 from ._store import RunStore
 from .run_cache import RunCache, RunFailed
-from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, ResponseSurface
+from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, NodeForces, ResponseSurface
 
 __all__ = [
     "resolve_model", "run_key", "run_task",
     "NICE_DEPTHS", "nice_depth",
     "SurfaceGrid",
     "ResponseSurface",
+    "NodeForces",
     "parse_range",
     "default_settings",
     "default_unit_curve",
