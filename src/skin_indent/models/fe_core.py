@@ -32,6 +32,13 @@ What keeps it cheap and smooth:
   core idle between its Jacobians.
 - **Cheap screening.** Start vectors are ranked by runs with fewer solved depths and a
   looser tolerance (:meth:`FECore.screening`), kept apart from the fit's runs.
+- **Warm starts.** A run starts Newton's method at every depth from the converged fields of
+  the nearest run made before on a mesh of the same topology (:meth:`FECore.warm_start`):
+  the steps of a fit and its finite differences are then 2.5-5x cheaper (1-3 Newton
+  iterations per depth instead of 4-7 on layers), the forces the same to the Newton tolerance.
+- **A run cache.** With a :class:`~skin_indent.response_surface.RunCache` (``run_cache``) every
+  run is kept on disk, keyed by everything that determines it: the same fit or diagnosis made
+  again (another process, another day) solves nothing.
 - **Secant updates of the differenced columns.** Within a fit's iterations
   (:meth:`FECore.iterating`, entered by :func:`~skin_indent.inverse.fit_least_squares`) a
   thickness column is carried from one Jacobian to the next by a Broyden update and made
@@ -50,6 +57,7 @@ mN, with the muscle a half-space as in the truth, whose deep interface makes eac
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import sys
 import time
@@ -100,6 +108,13 @@ SCREEN_INCREMENTS, SCREEN_RTOL, SCREEN_FIRST = 8, 1e-5, 0.05
 #: within a fit (:meth:`FECore.iterating`), the differenced columns (thicknesses) of a Jacobian
 #: are recomputed by runs every this many Jacobians and carried by secant updates in between
 SECANT_REFRESH = 3
+#: a run starts Newton's method at every depth from the converged fields of the nearest run made
+#: before on a mesh of the same topology (morphed from the same reference) when no core parameter
+#: after E differs by more than this fraction (of its value, or of 5% of its range near 0); see
+#: :meth:`FECore.warm_start`
+WARM_DISTANCE = 0.2
+#: converged fields of this many recent runs are kept per core for warm starts (~0.5 MB each)
+WARM_KEPT = 12
 
 
 def solved_depths(sample, ceiling_mm: float, increments: int = INCREMENTS, first: float = FIRST) -> np.ndarray:
@@ -114,20 +129,22 @@ def solved_depths(sample, ceiling_mm: float, increments: int = INCREMENTS, first
 
 
 def _solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float, sensitivities: bool,
-                increments: int = INCREMENTS, first: float = FIRST):
-    """One unit-modulus run to the ceiling (a worker task) at the depths of :func:`solved_depths`.
+                increments: int = INCREMENTS, first: float = FIRST, initial=None):
+    """One unit-modulus run to the ceiling (a worker task) at the depths of :func:`solved_depths`,
+    warm-started from the fields ``initial`` (one per depth, or None) where given.
 
-    Returns the solved depths (mm), the forces there (mN) and, with ``sensitivities``,
-    their derivatives with respect to every material parameter (direct differentiation,
-    :mod:`skin_indent.mechanics.sensitivity`), else None.
+    Returns the solved depths (mm), the forces there (mN), with ``sensitivities`` their
+    derivatives with respect to every material parameter (direct differentiation,
+    :mod:`skin_indent.mechanics.sensitivity`, else None), and the converged displacement
+    field at every solved depth (the warm start of a run nearby).
     """
     from ..mechanics.contact import SphericalIndenter
     from ..simulate import simulate
 
     depths = solved_depths(sample, ceiling_mm, increments, first)
     curve = simulate(sample, SphericalIndenter(radius_mm), depths, mesh=imesh, rtol=rtol, solve_at_outputs=True,
-                     sensitivities=sensitivities)
-    return curve.solved_depth_mm, curve.solved_force_mN, curve.sensitivities
+                     sensitivities=sensitivities, initial_fields=initial, keep_fields=True)
+    return curve.solved_depth_mm, curve.solved_force_mN, curve.sensitivities, curve.solved_fields
 
 
 def _as_arrays(run) -> dict:
@@ -266,6 +283,9 @@ class FECore:
         self._cancelled = False
         self._secant, self._last = False, None
         self._ref = None
+        self._ref_serial = 0  # counts the reference meshes: morphs of one share its topology
+        self._fields = collections.OrderedDict()  # recent runs: key -> (rest, reference serial, {depth: field})
+        self.warm_starts = 0
         self._executor = None
         self.run_cache = run_cache
         self.runs = self.made = self.cached = 0
@@ -313,6 +333,7 @@ class FECore:
             key = (0, False)
             if self._ref is None or self._ref[0] != key:
                 self._ref = (key, None, graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name))
+                self._ref_serial += 1
             return self._ref[2]
         interfaces = np.asarray(sample.interfaces_mm, dtype=float)
         key = (interfaces.size, sample.rigid_base)
@@ -328,11 +349,13 @@ class FECore:
         else:
             imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=interfaces)
         self._ref = (key, interfaces, imesh)
+        self._ref_serial += 1
         return imesh
 
     def reset_mesh(self) -> None:
         """Build the mesh anew for the next parameters (a new reference for morphing)."""
         self._ref = None
+        self._ref_serial += 1
 
     # ----------------------------------------------------------------- runs
     def _key(self, rest) -> tuple:
@@ -387,7 +410,7 @@ class FECore:
     def _run(self, rests, sensitivities: bool = False) -> None:
         if self._cancelled:
             raise RuntimeError("the finite-element fit was cancelled")
-        todo, references = {}, {}
+        todo, references, self._pending = {}, {}, {}
         failed = None
         for rest in rests:
             key = self._key(rest)
@@ -399,6 +422,7 @@ class FECore:
                 sample = self.spec(rest).sample(merge=False)
                 imesh = self._mesh(sample)
                 references[key] = None if self._ref[1] is None else [float(v) for v in self._ref[1]]
+                self._pending[key] = (np.array(rest, dtype=float), self._ref_serial)
                 if self._screening:
                     todo[key] = (sample, self.radius_mm, self.ceiling_mm, imesh, SCREEN_RTOL, False,
                                  SCREEN_INCREMENTS, SCREEN_FIRST)
@@ -419,19 +443,70 @@ class FECore:
             values = ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.parameter_names[1:], key[-len(rests[0]):]))
             raise ValueError(f"finite-element run failed at {values}: {str(err).splitlines()[0]}")
 
+    def warm_start(self, rest, serial: int, depths) -> list | None:
+        """The converged fields (one per depth of ``depths``, None where it has none) of the nearest
+        run kept (:data:`WARM_KEPT`) on a mesh of reference ``serial`` whose core parameters after E
+        are within :data:`WARM_DISTANCE` of ``rest``; None if there is no such run.
+
+        Newton's method then starts at every depth from a state converged for a nearby sample
+        instead of the predictor's: measured on the forearm-like two layers and layer with
+        stiffening (coarse mesh, 14 depths), 1 iteration per depth instead of 4-7 for a
+        finite-difference step, 2-3 for a step of 1-5% in a thickness or a modulus ratio, runs
+        2.5-5x cheaper, forces within 1e-8 of a cold run (the Newton tolerance).
+        """
+        lo, hi = (np.asarray(b, dtype=float)[1:] for b in self.bounds)
+        rest = np.asarray(rest, dtype=float)
+        scale = np.maximum(np.abs(rest), 0.05 * (hi - lo))
+        best, best_d = None, WARM_DISTANCE
+        for key, (other, other_serial, fields) in self._fields.items():
+            if other_serial != serial:
+                continue
+            d = float(np.max(np.abs(other - rest) / scale))
+            if d <= best_d:
+                best, best_d = key, d
+        if best is None:
+            return None
+        fields = self._fields[best][2]
+        initial = [fields.get(float(h)) for h in depths]
+        return initial if any(f is not None for f in initial) else None
+
+    def _keep_fields(self, key, fields) -> None:
+        rest, serial = self._pending[key]
+        self._fields[key] = (rest, serial, {float(h): u for h, u in fields})
+        self._fields.move_to_end(key)
+        while len(self._fields) > WARM_KEPT:
+            self._fields.popitem(last=False)
+
     def _compute(self, todo: dict, keys: list):
         """Solve the runs ``keys`` of ``todo``: ``(key, run, error)`` as they finish (one alone here,
-        unless :meth:`in_workers`; several in the worker processes)."""
+        unless :meth:`in_workers`; several in the worker processes), each warm-started from the
+        nearest run made before (:meth:`warm_start`); their converged fields are kept for the next."""
+        tasks = {}
+        for key in keys:
+            args = todo[key]
+            depths = solved_depths(args[0], args[2], args[6], args[7])
+            initial = self.warm_start(*self._pending[key], depths)
+            self.warm_starts += initial is not None
+            tasks[key] = (*args, initial)
+
+        def done(key, value, error):
+            if error is not None:
+                return key, None, error
+            h, F, S, fields = value
+            self._keep_fields(key, zip(h, fields))
+            return key, (h, F, S), None
+
         if len(keys) == 1 and not self._in_workers:
             key = keys[0]
             try:
-                run = _solve_unit(*todo[key])
+                value = _solve_unit(*tasks[key])
             except Exception as err:  # noqa: BLE001 - a run that does not converge is a failed evaluation
                 yield key, None, err
             else:
-                yield key, run, None
+                yield done(key, value, None)
         elif keys:
-            yield from self._pool().imap_unordered(_solve_unit, ((key, todo[key]) for key in keys))
+            for key, value, error in self._pool().imap_unordered(_solve_unit, tasks.items()):
+                yield done(key, value, error)
 
     def run_parts(self, args, reference_mm) -> dict:
         """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of the run of :func:`_solve_unit`
