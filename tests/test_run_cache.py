@@ -148,48 +148,44 @@ def test_two_processes_share_a_run(tmp_path):
 
 # ------------------------------------------------------------------ the finite-element model in the loop
 def test_fe_core_keys_differ_with_everything_that_determines_a_run(tmp_path):
-    """The key parts of a run: the sample as built, the radius, the depths solved, the mesh and the
-    reference it was morphed from, the Newton tolerance, the sensitivities; no run is solved here."""
-    from skin_indent.mechanics.mesh import graded_mesh
-    from skin_indent.models.fe_core import FIRST, INCREMENTS, RTOL, morph
+    """The key parts of a run: the sample as built, the radius, the depths solved, the mesh (its family
+    member and the reference it was morphed from), the Newton tolerance, the sensitivities; no run is
+    solved (nor any mesh built) here."""
+    from skin_indent.models.fe_core import FIRST, INCREMENTS, RTOL
 
     cache = RunCache(tmp_path)
-    core = FECore(("layer", "layer"), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1, run_cache=cache)
+
+    def core_of(mesh="coarse"):
+        return FECore(("layer", "layer"), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1, mesh=mesh,
+                      run_cache=cache)
+
+    core = core_of()
     sample = core.spec(TWO_LAYERS[1:]).sample(merge=False)
-    ref = sample.interfaces_mm
-    built = graded_mesh(R, core.ceiling_mm, "coarse", interfaces_mm=ref)
-    base = (sample, R, core.ceiling_mm, built, RTOL, True, INCREMENTS, FIRST)
+    ref = [float(v) for v in sample.interfaces_mm]
+    base = (sample, R, core.ceiling_mm, None, RTOL, True, INCREMENTS, FIRST)
 
     def key(args=base, reference=ref, on=core):
         return cache.key(on.run_parts(args, reference))
 
     other = core.spec((TWO_LAYERS * [1, 1, 1.1, 1, 1, 1])[1:]).sample(merge=False)
-    moved = morph(built, ref, other.interfaces_mm, False)
     keys = {
         "as built": key(),
-        "another sample": key((other, *base[1:3], graded_mesh(R, core.ceiling_mm, "coarse",
-                                                               interfaces_mm=other.interfaces_mm), *base[4:]),
-                              other.interfaces_mm),
-        "another sample, morphed from the same mesh": key((other, *base[1:3], moved, *base[4:])),
+        "another sample, on its own mesh": key((other, *base[1:]), [float(v) for v in other.interfaces_mm]),
+        "another sample, morphed from the same mesh": key((other, *base[1:])),
         "another radius": key((sample, 2 * R, *base[2:])),
         "deeper": key((sample, R, 2 * core.ceiling_mm, *base[3:])),
         "fewer depths": key((*base[:6], 14, FIRST)),
         "from deeper": key((*base[:7], 0.05)),
         "looser": key((*base[:4], 1e-5, *base[5:])),
         "no sensitivities": key((*base[:5], False, *base[6:])),
-        "medium mesh": key((*base[:3], graded_mesh(R, core.ceiling_mm, "medium", interfaces_mm=ref), *base[4:])),
-        "morphed from elsewhere": key((*base[:3], morph(graded_mesh(R, core.ceiling_mm, "coarse",
-                                                                    interfaces_mm=other.interfaces_mm),
-                                                        other.interfaces_mm, ref, False), *base[4:]),
-                                      other.interfaces_mm),
+        "medium mesh": key(on=core_of("medium")),
+        "morphed from elsewhere": key(reference=[v * 1.1 for v in ref]),
+        "a half-space mesh reference": key(reference=None),
     }
     assert len(set(keys.values())) == len(keys), keys
-    # the reference alone (the same nodes) still names another key: it says where the mesh came from
-    assert key(reference=[float(v) * 1.1 for v in ref]) != keys["as built"]
-    same = FECore(("layer", "layer"), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1,
-                  run_cache=RunCache(tmp_path))
-    assert key(on=same) == keys["as built"]  # another core (another process) names the same run alike
-    same.close(), core.close()
+    assert key(on=core_of()) == keys["as built"]  # another core (another process) names the same run alike
+    # the mesh passed to the solver is not part of the key (it follows from the rest)
+    assert key((*base[:3], "any mesh", *base[4:])) == keys["as built"]
 
 
 def test_a_rerun_of_a_fit_in_the_loop_solves_nothing(tmp_path, solves):

@@ -166,19 +166,6 @@ def _from_arrays(arrays: dict, sensitivities: bool) -> tuple:
     return arrays["depth_mm"], arrays["force_mN"], S if sensitivities else None
 
 
-def mesh_digest(imesh) -> str:
-    """SHA-256 (hex) of a mesh's vertices, triangles and design sizes: what a run's key holds of its mesh."""
-    import hashlib
-
-    h = hashlib.sha256()
-    for a in (imesh.mesh.p, imesh.mesh.t):
-        a = np.ascontiguousarray(a)
-        h.update(f"{a.dtype.str}{a.shape}".encode())
-        h.update(a.tobytes())
-    h.update(repr((float(imesh.contact_radius_mm), float(imesh.surface_size_mm), float(imesh.extent_mm))).encode())
-    return h.hexdigest()
-
-
 def material_parameters(sample) -> dict:
     """``{(k, name): value}`` of every material parameter of a sample (k as in ``sample.materials``)."""
     from ..mechanics.layers import LayeredSample
@@ -284,6 +271,7 @@ class FECore:
         self._secant, self._last = False, None
         self._ref = None
         self._ref_serial = 0  # counts the reference meshes: morphs of one share its topology
+        self._meshes = collections.OrderedDict()  # serial -> the mesh built for that reference
         self._fields = collections.OrderedDict()  # recent runs: key -> (rest, reference serial, {depth: field})
         self.warm_starts = 0
         self._executor = None
@@ -324,33 +312,61 @@ class FECore:
         return theta
 
     # ----------------------------------------------------------------- meshes
-    def _mesh(self, sample):
-        """The (possibly morphed) mesh for a sample: same interfaces as the reference -> morph."""
+    def _reference(self, sample) -> tuple:
+        """The mesh reference of a sample: ``(serial, interfaces (mm) or None)``.
+
+        The reference (the interfaces a mesh is built for) is kept while a sample has the
+        same number of interfaces and base and each interface within :data:`MORPH_RANGE` of
+        the reference's; otherwise the sample's interfaces are the new reference (``serial``
+        counts references: the meshes of one share its topology). Nothing is built here: a
+        run read from the run cache needs no mesh.
+        """
         from ..mechanics.layers import LayeredSample
-        from ..mechanics.mesh import graded_mesh
 
         if not isinstance(sample, LayeredSample):
             key = (0, False)
             if self._ref is None or self._ref[0] != key:
-                self._ref = (key, None, graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name))
+                self._ref = (key, None)
                 self._ref_serial += 1
-            return self._ref[2]
+            return self._ref_serial, None
         interfaces = np.asarray(sample.interfaces_mm, dtype=float)
         key = (interfaces.size, sample.rigid_base)
         if self._ref is not None and self._ref[0] == key:
             ratio = interfaces / self._ref[1]
             if np.all((ratio >= MORPH_RANGE[0]) & (ratio <= MORPH_RANGE[1])):
-                if np.array_equal(interfaces, self._ref[1]):
-                    return self._ref[2]
-                return morph(self._ref[2], self._ref[1], interfaces, sample.rigid_base)
-        if sample.rigid_base:
-            imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=interfaces[:-1],
-                                rigid_base_mm=float(interfaces[-1]))
-        else:
-            imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=interfaces)
-        self._ref = (key, interfaces, imesh)
+                return self._ref_serial, self._ref[1]
+        self._ref = (key, interfaces)
         self._ref_serial += 1
-        return imesh
+        return self._ref_serial, interfaces
+
+    def _built(self, serial: int, reference, sample):
+        """The mesh of reference ``serial`` (built once, for the interfaces ``reference``), morphed to the
+        interfaces of ``sample``."""
+        from ..mechanics.mesh import graded_mesh
+
+        imesh = self._meshes.get(serial)
+        if imesh is None:
+            if reference is None:
+                imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name)
+            elif sample.rigid_base:
+                imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=reference[:-1],
+                                    rigid_base_mm=float(reference[-1]))
+            else:
+                imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=reference)
+            self._meshes[serial] = imesh
+            while len(self._meshes) > 4:
+                self._meshes.popitem(last=False)
+        if reference is None:
+            return imesh
+        interfaces = np.asarray(sample.interfaces_mm, dtype=float)
+        if np.array_equal(interfaces, reference):
+            return imesh
+        return morph(imesh, reference, interfaces, sample.rigid_base)
+
+    def _mesh(self, sample):
+        """The (possibly morphed) mesh for a sample: same interfaces as the reference -> morph."""
+        serial, reference = self._reference(sample)
+        return self._built(serial, reference, sample)
 
     def reset_mesh(self) -> None:
         """Build the mesh anew for the next parameters (a new reference for morphing)."""
@@ -410,7 +426,7 @@ class FECore:
     def _run(self, rests, sensitivities: bool = False) -> None:
         if self._cancelled:
             raise RuntimeError("the finite-element fit was cancelled")
-        todo, references, self._pending = {}, {}, {}
+        todo, where = {}, {}  # the runs to make, and (rest, mesh reference serial, reference interfaces) of each
         failed = None
         for rest in rests:
             key = self._key(rest)
@@ -420,17 +436,17 @@ class FECore:
             have = self._curves.get(key)
             if (have is None or (sensitivities and have[2] is None)) and key not in todo:
                 sample = self.spec(rest).sample(merge=False)
-                imesh = self._mesh(sample)
-                references[key] = None if self._ref[1] is None else [float(v) for v in self._ref[1]]
-                self._pending[key] = (np.array(rest, dtype=float), self._ref_serial)
+                serial, reference = self._reference(sample)
+                where[key] = (np.array(rest, dtype=float), serial, reference)
+                # the mesh (None here) is built only for a run that is solved (_compute)
                 if self._screening:
-                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, imesh, SCREEN_RTOL, False,
+                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, None, SCREEN_RTOL, False,
                                  SCREEN_INCREMENTS, SCREEN_FIRST)
                 else:
-                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, imesh, RTOL, sensitivities,
+                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, None, RTOL, sensitivities,
                                  FIT_INCREMENTS if self._secant else INCREMENTS, FIRST)
         t0 = time.perf_counter()
-        for key, value in self._solve(todo, references).items():
+        for key, value in self._solve(todo, where).items():
             if isinstance(value, BaseException):
                 self._failed[key] = value
                 failed = failed or (key, value)
@@ -470,30 +486,32 @@ class FECore:
         initial = [fields.get(float(h)) for h in depths]
         return initial if any(f is not None for f in initial) else None
 
-    def _keep_fields(self, key, fields) -> None:
-        rest, serial = self._pending[key]
+    def _keep_fields(self, key, rest, serial: int, fields) -> None:
         self._fields[key] = (rest, serial, {float(h): u for h, u in fields})
         self._fields.move_to_end(key)
         while len(self._fields) > WARM_KEPT:
             self._fields.popitem(last=False)
 
-    def _compute(self, todo: dict, keys: list):
-        """Solve the runs ``keys`` of ``todo``: ``(key, run, error)`` as they finish (one alone here,
-        unless :meth:`in_workers`; several in the worker processes), each warm-started from the
-        nearest run made before (:meth:`warm_start`); their converged fields are kept for the next."""
+    def _compute(self, todo: dict, where: dict, keys: list):
+        """Solve the runs ``keys`` of ``todo`` (``where``: their parameters and mesh references):
+        ``(key, run, error)`` as they finish (one alone here, unless :meth:`in_workers`; several in
+        the worker processes), each on its mesh (built here), warm-started from the nearest run made
+        before (:meth:`warm_start`); their converged fields are kept for the next."""
         tasks = {}
         for key in keys:
             args = todo[key]
+            rest, serial, reference = where[key]
+            imesh = self._built(serial, reference, args[0])
             depths = solved_depths(args[0], args[2], args[6], args[7])
-            initial = self.warm_start(*self._pending[key], depths)
+            initial = self.warm_start(rest, serial, depths)
             self.warm_starts += initial is not None
-            tasks[key] = (*args, initial)
+            tasks[key] = (*args[:3], imesh, *args[4:], initial)
 
         def done(key, value, error):
             if error is not None:
                 return key, None, error
             h, F, S, fields = value
-            self._keep_fields(key, zip(h, fields))
+            self._keep_fields(key, *where[key][:2], zip(h, fields))
             return key, (h, F, S), None
 
         if len(keys) == 1 and not self._in_workers:
@@ -510,32 +528,34 @@ class FECore:
 
     def run_parts(self, args, reference_mm) -> dict:
         """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of the run of :func:`_solve_unit`
-        arguments ``args`` on a mesh morphed from one built for the interfaces ``reference_mm`` (None:
-        a half-space): the sample as built, the sphere radius, the depths solved, the mesh (its name,
-        that reference and a digest of its nodes), the Newton tolerance, the sensitivities or not, and
-        the digest of this module."""
-        sample, radius_mm, ceiling_mm, imesh, rtol, sensitivities, increments, first = args
+        arguments ``args`` (its mesh left out) on a mesh morphed from one built for the interfaces
+        ``reference_mm`` (None: a half-space): the sample as built, the sphere radius, the depths
+        solved, the mesh (its family member, the reference and the base; with the sample's
+        interfaces and the sources they determine its nodes), the Newton tolerance, the
+        sensitivities or not, and the digest of this module (which morphs the meshes)."""
+        sample, radius_mm, ceiling_mm, _, rtol, sensitivities, increments, first = args[:8]
         reference = None if reference_mm is None else [float(v) for v in reference_mm]
         return {"run": "skin_indent.models.fe_core unit-modulus run", "code": module_digest(sys.modules[__name__]),
                 "sample": repr(sample), "radius_mm": float(radius_mm), "ceiling_mm": float(ceiling_mm),
                 "depth_mm": solved_depths(sample, ceiling_mm, increments, first).tolist(),
                 "mesh": self.mesh_name, "mesh_reference_mm": reference,
-                "mesh_rigid_base": bool(getattr(sample, "rigid_base", False)), "mesh_sha256": mesh_digest(imesh),
+                "mesh_rigid_base": bool(getattr(sample, "rigid_base", False)),
                 "rtol": float(rtol), "sensitivities": bool(sensitivities)}
 
-    def _solve(self, todo: dict, references: dict) -> dict:
-        """``{key: run or exception}`` of the runs ``todo`` (``{key: arguments of _solve_unit}``, their
-        meshes morphed from ``references[key]``): read from the run cache where it has them (a run with
-        sensitivities also serves one without), else solved (and kept there)."""
+    def _solve(self, todo: dict, where: dict) -> dict:
+        """``{key: run or exception}`` of the runs ``todo`` (``{key: arguments of _solve_unit}``; ``where``:
+        ``{key: (rest, mesh serial, reference interfaces)}``): read from the run cache where it has them
+        (a run with sensitivities also serves one without), else solved (and kept there)."""
         if not todo:
             return {}
         if self.run_cache is None:
-            out = {key: value if error is None else error for key, value, error in self._compute(todo, list(todo))}
+            out = {key: value if error is None else error
+                   for key, value, error in self._compute(todo, where, list(todo))}
             self.made += len(out)
             return out
         out, parts = {}, {}
         for key, args in todo.items():
-            parts[key] = self.run_parts(args, references[key])
+            parts[key] = self.run_parts(args, where[key][2])
             if not args[5]:  # without sensitivities: the run with them serves too
                 with contextlib.suppress(RunFailed):
                     arrays = self.run_cache.load(self.run_cache.key({**parts[key], "sensitivities": True}))
@@ -545,7 +565,7 @@ class FECore:
         before = dict(self.run_cache.counts)
 
         def compute(keys):
-            for key, run, error in self._compute(todo, keys):
+            for key, run, error in self._compute(todo, where, keys):
                 yield key, None if run is None else _as_arrays(run), error
 
         for key, value in self.run_cache.get_or_compute_many(rest, compute).items():

@@ -139,7 +139,7 @@ class ResponseSurface:
         s_h = h**1.5 if scaling != "none" else np.ones_like(h)
         s_nu = 1.0 / (1.0 - nu**2) if scaling == "hertz" else np.ones_like(nu)
         self._g = f / (s_h[:, None] * s_nu[None, :])
-        self._nu_ops = {"lagrange": _lagrange_stencils(nu), "spline": _spline_stencils(nu)}
+        self._nu_ops = {}  # method -> interpolation in nu, made when first used (:meth:`_nu_op`)
         self._E_op = _lagrange_stencils(grid.E_kPa)
         self._E_coef = self._E_op.data_coef(grid.E_kPa)  # polynomial sum_j L_j(E) E_j per interval
         self._depth = {}  # depth_interp -> (stencils, coefficients (n_int, K, n_nu) of g)
@@ -484,6 +484,12 @@ class ResponseSurface:
                 f"{g.nu[0]:g}-{g.nu[-1]:g}, {len(self.failures)} failed, hash {self.hash[:12]})")
 
     # ------------------------------------------------------------ evaluation
+    def _nu_op(self, method):
+        if method not in self._nu_ops:
+            build = _lagrange_stencils if method == "lagrange" else _spline_stencils
+            self._nu_ops[method] = build(self.grid.nu)
+        return self._nu_ops[method]
+
     def _depth_op(self, kind):
         if kind not in self._depth:
             op = _DEPTH_BUILDERS[kind](self.grid.depth_mm)
@@ -557,7 +563,7 @@ class ResponseSurface:
             h = np.where(contact, h, g.depth_mm[0])
         # weights of the nu nodes, then the per-interval depth polynomials of g contracted
         # with them: g(h, nu) = sum_k t^k sum_c D[i, k, c] w_c(nu)
-        cols, w, dw = self._nu_ops[method].weights(nu)
+        cols, w, dw = self._nu_op(method).weights(nu)
         if self._missing[cols].any():
             bad = g.nu[cols][self._missing[cols]]
             why = "; ".join(self.failures.get(float(x), "?") for x in bad)
