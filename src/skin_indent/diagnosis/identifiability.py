@@ -40,6 +40,7 @@ from ..inverse.result import jacobian_covariance
 from ..models import ComposedModel
 from ..models.fe_core import FECore
 from ..response_surface import RunCache
+from ..runtime.executors import available_cpus
 
 #: a parameter is determined when its standard deviation is below this fraction of its value
 DETERMINED = 0.5
@@ -403,7 +404,9 @@ def assess(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
     except Exception as err:  # noqa: BLE001 - nothing to assess: no alternative is suggested
         return [Prediction(a, a.short, None, f"{type(err).__name__}: {err}") for a in alternatives]
     radius = float(model.data.radius_mm)
-    workers = getattr(getattr(fitter, "context", None), "workers", None) or 1
+    workers = getattr(getattr(fitter, "context", None), "workers", None)
+    if workers is None:  # the context's default, as the cores' own: at most 2 local processes
+        workers = min(2, available_cpus())
     concurrent = workers > 1 and len(alternatives) > 1
 
     def failed(a, err):
