@@ -530,13 +530,16 @@ class FECore:
         """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of the run of :func:`_solve_unit`
         arguments ``args`` (its mesh left out) on a mesh morphed from one built for the interfaces
         ``reference_mm`` (None: a half-space): the sample as built, the sphere radius, the depths
-        solved, the mesh (its family member, the reference and the base; with the sample's
-        interfaces and the sources they determine its nodes), the Newton tolerance, the
-        sensitivities or not, and the digest of this module (which morphs the meshes)."""
+        solved (the increments and the first depth), the mesh (its family member, the reference
+        and the base; with the sample's interfaces and the sources they determine its nodes), the
+        Newton tolerance, the sensitivities or not, and the digest of this module (which morphs the
+        meshes). A warm start (:meth:`warm_start`) is not part of it: it changes the result only
+        to the Newton tolerance."""
         sample, radius_mm, ceiling_mm, _, rtol, sensitivities, increments, first = args[:8]
         reference = None if reference_mm is None else [float(v) for v in reference_mm]
         return {"run": "skin_indent.models.fe_core unit-modulus run", "code": module_digest(sys.modules[__name__]),
                 "sample": repr(sample), "radius_mm": float(radius_mm), "ceiling_mm": float(ceiling_mm),
+                "increments": int(increments), "first": float(first),
                 "depth_mm": solved_depths(sample, ceiling_mm, increments, first).tolist(),
                 "mesh": self.mesh_name, "mesh_reference_mm": reference,
                 "mesh_rigid_base": bool(getattr(sample, "rigid_base", False)),
