@@ -23,6 +23,7 @@ COMMANDS = {
     "simulate": ["simulate", "--mesh", "coarse", "--points", "3", "--depth", "0.05"],
     "fit": ["fit", FOREARM, "--mesh", "coarse", "--workers", "1"],
     "diagnose": ["diagnose", FOREARM, "--max-rungs", "0", "--surfaces-only"],
+    "plan": ["plan", FOREARM, "--max-rungs", "0", "--surfaces-only"],
     "surface": ["surface", "build", "--mesh", "coarse", "--workers", "1"],
     "demo": ["demo", "--no-diagnosis"],
 }
@@ -74,8 +75,8 @@ def fake_fe(monkeypatch, tmp_path):
 
 
 # ------------------------------------------------------------------ help and options
-@pytest.mark.parametrize("command", [[], ["simulate"], ["fit"], ["diagnose"], ["surface"], ["surface", "build"],
-                                     ["demo"]])
+@pytest.mark.parametrize("command", [[], ["simulate"], ["fit"], ["diagnose"], ["plan"], ["surface"],
+                                     ["surface", "build"], ["demo"]])
 def test_every_help_states_the_exit_statuses_and_the_message_options(command, capsys):
     with pytest.raises(SystemExit) as exit_:
         main([*command, "--help"])
@@ -161,9 +162,9 @@ def _malformed(tmp_path):
 
 
 @pytest.mark.parametrize("argv", [
-    ["fit", "{missing}"], ["diagnose", "{missing}"], ["surface", "build", "{missing}"],
+    ["fit", "{missing}"], ["diagnose", "{missing}"], ["plan", "{missing}"], ["surface", "build", "{missing}"],
     ["simulate", "--protocol", "{missing}", "--mesh", "coarse"],
-    ["fit", "{malformed}"], ["diagnose", "{malformed}"], ["surface", "build", "{malformed}"],
+    ["fit", "{malformed}"], ["diagnose", "{malformed}"], ["plan", "{malformed}"], ["surface", "build", "{malformed}"],
     ["simulate", "--protocol", "{malformed}", "--mesh", "coarse"],
     ["simulate", "--nu", "0.7"], ["fit", FOREARM, "--window", "0.6:0.1"], ["diagnose", FOREARM, "--max-rungs", "-1"],
     ["surface", "build", "--points", "2"], ["fit", FOREARM, "--radius", "-1"],
@@ -188,7 +189,8 @@ def test_bad_options_exit_2(argv, capsys):
 
 @pytest.mark.parametrize("command, target", [
     ("simulate", "skin_indent.simulate.simulate"), ("fit", "skin_indent.measurement.load_curves"),
-    ("diagnose", "skin_indent.measurement.load_curve"), ("surface", "skin_indent.fitting.surface_for"),
+    ("diagnose", "skin_indent.measurement.load_curve"), ("plan", "skin_indent.measurement.load_curve"),
+    ("surface", "skin_indent.fitting.surface_for"),
     ("demo", "skin_indent.demo.run_demo"),
 ])
 def test_an_interruption_exits_130(command, target, monkeypatch, capsys, tmp_path):
@@ -203,8 +205,8 @@ def test_an_interruption_exits_130(command, target, monkeypatch, capsys, tmp_pat
 
 
 def _fake_fit(flags=(), success=True):
-    result = SimpleNamespace(flags=tuple(flags), success=success, surface=None, report=lambda: "report",
-                             to_dict=lambda: {"E_kPa": 1.0})
+    result = SimpleNamespace(flags=tuple(flags), success=success, surface=None, radius_mm=6.22,
+                             report=lambda: "report", to_dict=lambda: {"E_kPa": 1.0})
 
     def fit(*args, **kwargs):
         return result

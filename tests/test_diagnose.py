@@ -259,32 +259,6 @@ def test_cli_diagnose_json_and_errors(cache, diagnosis_surfaces, tmp_path):
     assert missing.returncode == 2 and "Traceback" not in missing.stderr
 
 
-def test_separating_measurement_runs_in_workers_as_in_process():
-    """The forward runs behind a suggested measurement (two fitted models, two scenarios) go
-    to the diagnosis' worker processes; the differences equal those of runs made here, and
-    a model whose runs fail leaves its scenario out instead of failing the suggestion."""
-    from types import SimpleNamespace
-
-    from skin_indent.runtime.context import Context
-    from skin_indent.diagnosis.evidence import _forward_differences
-    from skin_indent.effects import Model
-
-    a = SimpleNamespace(effects=("layer", "offset"),
-                        parameters={"E_kPa": 10.0, "nu": 0.45, "thickness_mm": 1.0, "ratio": 3.0, "offset_mm": 0.02})
-    b = SimpleNamespace(effects=("stiffening",), parameters={"E_kPa": 12.0, "nu": 0.45, "C20_kPa": 5.0})
-    scenarios = {"half radius": (3.11, 0.15), "deeper": (6.22, 0.25)}
-    parallel = _forward_differences(SimpleNamespace(context=Context(workers=2)), a, b, scenarios)
-    here = {}
-    for label, (radius, depth) in scenarios.items():
-        fa = Model(("layer",), radius).simulate({k: v for k, v in a.parameters.items() if k != "offset_mm"}, depth,
-                                                 mesh="coarse").force_mN
-        fb = Model(("stiffening",), radius).simulate(b.parameters, depth, mesh="coarse").force_mN
-        here[label] = float(np.max(np.abs(fa - fb)))
-    assert parallel == pytest.approx(here, rel=1e-9) and min(here.values()) > 0
-    broken = SimpleNamespace(effects=("stiffening",), parameters={"E_kPa": 12.0, "nu": 0.45, "C20_kPa": -5.0})
-    assert _forward_differences(SimpleNamespace(context=Context(workers=1)), a, broken, scenarios) == {}
-
-
 # ------------------------------------------------------------------ one set of numbers per diagnosis
 _PARAM = re.compile(r"^(\S+) = (inf \(rigid\)|\S+)(?: \+- (\S+))?$")
 

@@ -221,7 +221,8 @@ def test_fits_in_the_loop_run_side_by_side():
         def model(self, key):
             if key == ("layer", "friction"):
                 raise ValueError("friction needs a ramp")
-            return SimpleNamespace(core=cores.get(key, object()))
+            core = cores.get(key, object())
+            return SimpleNamespace(core=core, cores=(core,))  # a fitted model's cores (one per curve of a sample)
 
         def fit(self, key):
             core = self.model(key).core

@@ -15,16 +15,17 @@ and test_diagnose.py.
 """
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
-from _data import DATA
 
 from skin_indent.data import bundled_path
 from skin_indent.measurement import load_csv, prepare
 from skin_indent.report.labels import line_styles, model_label, parameter_label, same_curve_as
 from skin_indent.runtime.context import Context
 
+DOCS = Path(__file__).resolve().parents[1] / "docs"
 #: identifiers of the code that must not reach a reader: parameter names with units, the
 #: abbreviation NH, "sigma" for a standard deviation
 RAW = re.compile(r"E_kPa|\bnu\b|_mm\b|_kPa\b|\bNH\b|sigma|neo-hooke")
@@ -198,6 +199,36 @@ def test_residual_figure_titles_use_model_names(diagnosis):
     titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
     assert titles and all(t.split(":")[0] in {model_label(f.model) for f in _models(diagnosis)} for t in titles)
     assert "noise: ±2 sd" in _legend(fig.axes[0])
+
+
+def test_the_readme_figure_is_made_by_the_docs_script_from_the_diagnosis_figures(diagnosis):
+    """docs/make_static_figures.py draws the page's fit and ladder figures side by side, and the README's
+    PNG (docs/_static/diagnose_ladder.png) says it was made by that script from the bundled curve."""
+    import hashlib
+    import importlib.util
+
+    from skin_indent.report.diagnosis_page import _models
+    from skin_indent.runtime.provenance import read_provenance
+
+    spec = importlib.util.spec_from_file_location("make_static_figures", DOCS / "make_static_figures.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    fig = script.ladder_panels(diagnosis)
+    fit_ax, rms_ax, bic_ax = fig.axes
+    names = [t.get_text() for t in bic_ax.get_xticklabels()]
+    assert names == [model_label(f.model).replace(" + ", "\n+ ") for f in _models(diagnosis)]
+    assert "lower is better" in bic_ax.get_ylabel()
+    assert [ln.get_label().split(" (RMS")[0] for ln in fit_ax.get_lines()][1:] == [model_label(f.model)
+                                                                                for f in _models(diagnosis)]
+    title = " ".join(t.get_text() for t in fig.texts)  # the suptitle
+    assert f"RMS {diagnosis.base.rms_mN:.3g} mN" in title and diagnosis.verdict in title
+    assert not [t for t in _texts(fig) + names + [title] if RAW.search(t)]
+    prov = read_provenance(DOCS / "_static" / "diagnose_ladder.png")
+    assert prov["command"][:2] == ["python", "docs/make_static_figures.py"] and prov["settings"]["mesh"] == "coarse"
+    (curve,) = prov["inputs"]
+    source = bundled_path(script.CURVE)
+    assert curve["sha256"] == hashlib.sha256(source.read_bytes()).hexdigest()
+    assert {s["type"] for s in prov["surface"]} == {"ResponseSurface", "EffectSurface"}
 
 
 # ------------------------------------------------------------------ the per-curve fit figure

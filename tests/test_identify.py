@@ -8,11 +8,10 @@ import sys
 import numpy as np
 import pytest
 
-from skin_indent.runtime.context import Context
-from skin_indent.fitting import identify, surface_for
+from skin_indent.fitting import identify
 from skin_indent.measurement import prepare
 from skin_indent.inverse import fit_ekf, fit_least_squares, format_table, run_blind_tests
-from skin_indent.measurement import load_csv, measurement_from_arrays
+from skin_indent.measurement import measurement_from_arrays
 from skin_indent.mechanics import NeoHooke, SphericalIndenter
 from skin_indent.response_surface import SurfaceGrid
 from skin_indent.simulate import simulate
@@ -208,6 +207,16 @@ def test_demo_goes_on_with_the_diagnosis_ladder(tmp_path):
     assert ladder[-1]["rms_mN"] < ladder[0]["rms_mN"]
     assert (tmp_path / "demo" / "diagnosis" / "index.html").is_file()
     assert summary["diagnosis"]["sentence"] in p.stdout
+    # the loop: one curve leaves two explanations, the proposed measurement (the same skin at R = 3.11 mm)
+    # is added, and both curves together name two layers, each curve explained to its noise
+    if summary["diagnosis"]["verdict"] == "ambiguous" or summary["diagnosis"]["undetermined"]:
+        both = summary["diagnosis_both"]
+        assert both["data"] == ["forearm_like.csv", "forearm_like_R3.11mm.csv"] and both["radius_mm"] == [6.22, 3.11]
+        assert both["verdict"] == "layer+layer" and both["explained"], both["sentence"]
+        assert len(both["ladder"][-1]["rms_mN"]) == 2
+        assert both["sentence"] in p.stdout
+        assert (tmp_path / "demo" / "diagnosis-both" / "index.html").is_file()
+        assert (tmp_path / "demo" / "loop.png").is_file()
 
 
 def _shifted(surface, d, bounds):

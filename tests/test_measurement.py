@@ -94,14 +94,15 @@ def assert_one_line_error(call, *fragments):
 @pytest.mark.parametrize("path", ALL_CSV, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_every_data_file_loads_without_dropping_rows(path):
     m = load(path)
-    n_lines = sum(1 for line in path.read_text().splitlines() if line.strip())
+    lines = [line for line in path.read_text().splitlines() if line.strip() and not line.startswith("#")]
+    n_lines = len(lines)  # a "# radius_um: ..." comment line is not a row
     assert m.n_points == n_lines - 1
     assert m.depth_mm.dtype == np.float64 and m.force_mN.dtype == np.float64
     assert np.isfinite(m.depth_mm).all() and np.isfinite(m.force_mN).all()
     assert m.has_time == (path.parent.name != "reference")
     assert m.source == path.name
     assert m.columns["depth_mm"] == {"column": "depth_mm", "factor": 1.0}
-    first = path.read_text().splitlines()[1].split(",")
+    first = lines[1].split(",")
     assert m.force_mN[0] == float(first[-1])
 
 

@@ -126,10 +126,34 @@ def test_a_model_fit_with_a_prior_replays_from_its_json(cache, tmp_path, capsys)
     """The model path (``--prior`` implies it): its JSON output, given as a profile, gives the same numbers."""
     code, out = fit_json(capsys, CLEAN, "--prior", "nu=0.45:0.02")
     assert code == 0 and out["provenance"]["settings"]["priors"] == {"nu": [0.45, 0.02]}
+    # the surface the fit used, in the result and in its provenance (was {} and null)
+    (surface,) = out["surface"]
+    assert out["provenance"]["surface"] == out["surface"] and surface["type"] == "ResponseSurface"
+    assert re.fullmatch(r"[0-9a-f]{64}", surface["hash"]) and surface["settings"]["mesh"] == "coarse"
     (tmp_path / "fit.json").write_text(json.dumps(out))
     code, again = fit_json(capsys, CLEAN, "--profile", tmp_path / "fit.json")
     assert code == 0
     assert again["model"] == "neo-hooke" and again["parameters"] == out["parameters"]
+
+
+def test_a_profile_is_saved_only_after_the_fit_succeeded(cache, tmp_path, capsys):
+    """A fit refused (h/R > 0.5: the radius in mm given as um), or a batch where no curve could be
+    fitted, leaves no profile; a successful one writes it after its report."""
+    saved = tmp_path / "profile.json"
+    assert main(["fit", str(CURVE), "--radius", "0.0000275", "--save-profile", str(saved), *FIT]) == 2
+    assert "deeper than the sphere's radius" in capsys.readouterr().err and not saved.exists()
+    folder = tmp_path / "bad"
+    folder.mkdir()
+    (folder / "empty.csv").write_text("depth_mm,force_mN\n")
+    assert main(["fit", str(folder), "--save-profile", str(saved), "--workers", "1", *FIT]) == 3
+    assert "1 failed" in capsys.readouterr().out and not saved.exists()
+    assert main(["fit", str(CURVE), "--save-profile", str(tmp_path / "nowhere" / "p.json"), *FIT]) == 2
+    assert "no such folder" in capsys.readouterr().err
+    assert main(["fit", str(CURVE), "--save-profile", str(saved), *FIT]) == 0
+    out = capsys.readouterr().out
+    assert out.rstrip().endswith(f"wrote the profile of this fit to {saved}") and "E_Pa" in out
+    assert read_profile(saved)["window"] == [0.0, 0.01]
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith("profile")] == ["profile.json"]  # no temp file
 
 
 @pytest.mark.parametrize("content, message", [

@@ -7,6 +7,10 @@ cause. Fits run on the coarse unit-radius surfaces of the gallery cache (conftes
 ``coarse_unit_surfaces``), so each costs well under a second.
 """
 
+import json
+import pickle
+import re
+
 import numpy as np
 import pytest
 
@@ -16,7 +20,8 @@ from skin_indent.cli import main
 from skin_indent.fitting import fit
 from skin_indent.fitting.scale_checks import MODULUS_RANGE_KPA, min_points, soft_min_points
 from skin_indent.measurement import MeasurementError, load_csv, measurement_from_arrays
-from skin_indent.measurement.scale import AFM_UNITS, SKIN_UNITS, afm_scale, display_units
+from skin_indent.measurement.scale import (AFM_UNITS, SKIN_UNITS, Name, Quantity, UnitText, afm_scale,
+                                          display_units, shown_in)
 from skin_indent.report.batch_table import row_line
 from skin_indent.runtime.context import Context
 
@@ -131,6 +136,23 @@ def test_the_chosen_model_path_has_the_same_checks(context):
     assert not [f for f in whole.flags if not f.startswith(("nu at the bound", "misfit"))]
 
 
+def test_a_model_fit_of_too_few_points_for_the_noise_names_the_cause(context, cli, tmp_path):
+    """The chosen-model path estimates the noise from the data (a local cubic: 7 points at least):
+    fewer points are one line naming the cause and --noise; with the noise given, the fit runs."""
+    six = _forearm(every=15, rows=6)  # h = 0 and 5 points in contact: 6 points on the model path
+    with pytest.raises(MeasurementError, match=r"forearm: 6 points are too few to estimate the noise from the data \(the "
+                                               r"local cubic prediction needs at least 7\): give the noise level"):
+        fit(six, model="neo-hooke", context=context, mesh="coarse")
+    given = fit(six, model="neo-hooke", noise_mN=0.05, context=context, mesh="coarse")
+    assert given.n_points == 6 and any(f.startswith("5 points in contact") for f in given.flags)
+    path = _write(tmp_path / "six.csv", six)
+    for command in ("fit", "diagnose"):
+        extra = ("--model", "neo-hooke") if command == "fit" else ("--max-rungs", "0", "--surfaces-only")
+        code, out, err = cli(command, path, *extra, "--mesh", "coarse")
+        assert code == 2 and err.count("\n") == 1, err
+        assert "too few to estimate the noise" in err and "--noise" in err and "need at least 7 points" not in err
+
+
 # ------------------------------------------------------------------ units follow the data
 def test_one_rule_decides_the_scale_and_its_units():
     assert afm_scale(0.01864) and afm_scale(0.499) and not afm_scale(0.5) and not afm_scale(6.22)
@@ -145,7 +167,7 @@ def test_an_afm_fit_reads_in_pa_nn_and_um_and_its_json_keeps_the_package_units(c
     E_Pa = r.parameters["E_kPa"] * 1e3
     assert f"E_Pa      = {E_Pa:.5g} +/-" in text
     assert f"contact point: {r.contact_point_mm * 1e3:.6g} +/-" in text and " um (fitted jointly" in text
-    assert f"noise {r.quality['noise_mN'] * 1e6:.3g} nN" in text and " mN" not in text.split("note:")[0]
+    assert f"noise {r.quality['noise_mN'] * 1e6:.3g} nN" in text and " mN" not in text
     d = r.to_dict()
     assert d["parameters"]["E_kPa"] == r.parameters["E_kPa"] and "contact_point_mm" in d
     row = BatchRow(file="a.csv", index=0, radius_mm=0.01864, E_kPa=0.132, E_star_kPa=0.176, nu=0.5,
@@ -154,6 +176,43 @@ def test_an_afm_fit_reads_in_pa_nn_and_um_and_its_json_keeps_the_package_units(c
     skin = BatchRow(file="b.csv", index=0, radius_mm=6.22, E_kPa=5.7, E_star_kPa=7.0, nu=0.45,
                     contact_point_mm=0.0, misfit=1.0, verdict="fits to the noise")
     assert row_line(skin).startswith("b.csv[0]: E = 5.7 kPa, E* = 7 kPa, nu = 0.45, contact 0 mm")
+
+
+def test_the_notes_of_an_afm_fit_read_in_its_units_and_its_json_in_the_package_units(context, cli):
+    """The incompressible limit's note (E* at nu = 0.49, 0.499, and 0.5), a value held and a prior print in
+    Pa and um, from the numbers the JSON keeps in kPa and mm."""
+    limit = fit(load_csv(JPK), context=context, mesh="coarse")
+    (note,) = [n for n in limit.notes if n.startswith("nu = 0.5: the incompressible limit")]
+    kPa = [float(v) for v in re.findall(r"\(?([-+\d.e]+) kPa", note)]
+    assert len(kPa) == 3 and kPa[-1] == pytest.approx(limit.e_star_kPa, rel=1e-4)  # JSON: package units
+    text = limit.report()
+    (shown,) = [line for line in text.splitlines() if line.startswith("note: nu = 0.5: the incompressible")]
+    Pa = [float(v) for v in re.findall(r"\(?([-+\d.e]+) Pa", shown)]
+    assert Pa == pytest.approx([1e3 * v for v in kPa], rel=1e-4) and "kPa" not in text
+    assert limit.to_dict()["notes"] == [str(n) for n in limit.notes]
+    held = fit(load_csv(JPK), fixed={"nu": 0.45}, context=context, mesh="coarse")
+    E = held.parameters["E_kPa"]
+    assert f"nu fixed at 0.45; E = {E:.5g} kPa" in held.notes
+    assert f"note: nu fixed at 0.45; E = {E * 1e3:.5g} Pa" in held.report()
+    code, out, err = cli("fit", JPK, "--model", "neo-hooke", "--fix", "offset_mm=0.0268", "--prior",
+                         "E_kPa=0.13:0.05", "--mesh", "coarse")
+    assert code in (0, 3) and "note: offset_um held at 26.8" in out and "contact point: 26.8 um (held)" in out
+    assert re.search(r"note: E_Pa: prior 130 \+- 50, posterior [\d.]+ \+- ", out), out
+    assert " kPa" not in out and " mm" not in out.split("sphere R")[1]
+    code, out, _ = cli("fit", JPK, "--model", "neo-hooke", "--fix", "offset_mm=0.0268", "--prior",
+                       "E_kPa=0.13:0.05", "--mesh", "coarse", "--json")
+    notes = json.loads(out)["notes"]
+    assert "offset_mm held at 0.0268" in notes and any(n.startswith("E_kPa: prior 0.13 +- 0.05") for n in notes)
+
+
+def test_unit_texts_read_in_any_units_and_pickle():
+    note = UnitText("{name} held at {value:g}; E = {E:.3g}", name=Name("offset_mm"), value=Quantity(0.0072, "offset_mm"),
+                    E=Quantity(0.132, "kPa"))
+    assert note == "offset_mm held at 0.0072; E = 0.132 kPa"
+    assert note.in_units(AFM_UNITS) == "offset_um held at 7.2; E = 132 Pa" and shown_in(note, SKIN_UNITS) == note
+    again = pickle.loads(pickle.dumps(note))
+    assert again == note and again.in_units(AFM_UNITS) == note.in_units(AFM_UNITS)
+    assert json.loads(json.dumps({"n": note})) == {"n": str(note)} and shown_in("plain", AFM_UNITS) == "plain"
 
 
 def test_the_fit_command_prints_an_afm_curve_in_its_units(cli):

@@ -21,7 +21,9 @@ Where things live
   uncertainty, identifiability).
 - ``skin_indent.fitting``: from a recorded curve to parameters (:func:`fit`), for the paper's
   half-space or any model, with values held and priors; the multistart fitter.
-- ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`): it orders and compares fits.
+- ``skin_indent.diagnosis``: which effect is missing (:func:`diagnose`): it orders and compares fits;
+  which measurement to make next (:func:`plan`);
+  :func:`diagnose_many` diagnoses every curve of files, folders and force maps in parallel.
 - ``skin_indent.report``: every figure, table and page the package writes.
 - ``skin_indent.runtime``: context, executors, threads, atomic writes, JSON, provenance.
 - ``skin_indent.cli``: the ``skin-indent`` command.
@@ -71,8 +73,12 @@ _EXPORTS = {
     "surface_for": "skin_indent.fitting",
     "CurveFit": "skin_indent.fitting",
     "diagnose": "skin_indent.diagnosis",
+    "diagnose_many": "skin_indent.diagnosis",
     "Diagnosis": "skin_indent.diagnosis",
+    "plan": "skin_indent.diagnosis",
+    "Plan": "skin_indent.diagnosis",
     "write_report": "skin_indent.report",
+    "write_plan": "skin_indent.report",
 }
 # top-level name -> the name in its module (the mechanics' ``Layer`` and ``Viscoelastic`` are a
 # layer of a sample and a material law; at the top level ``layer`` and ``viscoelastic`` are effects)

@@ -3,10 +3,11 @@
 :func:`fit_many` expands folders and files, reads every curve (all curves of a force
 map, or one ``index``), prepares each one (:func:`skin_indent.measurement.prepare`),
 loads or builds the response surfaces they need once in this process, then fits the
-curves with :func:`skin_indent.fitting.fit` on the local cores or a Dask cluster (the
-executors of :mod:`skin_indent.response_surface`; workers use one BLAS thread) with a
-progress bar. A file that cannot be read, or a curve that cannot be fitted, is one
-:class:`BatchRow` with its one-line ``error``: never the end of the batch.
+curves with :func:`skin_indent.fitting.fit` on the local cores or a Dask cluster with a
+progress bar (:func:`skin_indent.runtime.batch.run_tasks`, as a batch of diagnoses: each worker
+works on one core, with one BLAS thread). A file that cannot be read, or a curve that cannot be
+fitted, is one :class:`BatchRow` with its one-line ``error``: never the end of the batch (the
+files and curves are read by :mod:`skin_indent.measurement.curve_files`).
 
 :func:`write_tsv` writes the rows as a table (one line per curve, a provenance header),
 :func:`summary_figure` a figure of E per curve and, for force maps, E over the map.
@@ -26,7 +27,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
@@ -35,15 +35,13 @@ from .fitting import fit
 from .fitting import surface_for
 from .fitting.model_fit import parse_model, prepare_curve
 from .fitting.surfaces import SIMILARITY_RATIOS
-from .measurement import MeasurementError
-from .measurement import load_curve, load_curves, prepare
-from .measurement._files import folder_files
+from .measurement import prepare
+from .measurement.curve_files import READABLE_SUFFIXES, CurveLocation, expand_paths, read_curves
 from .report.batch_table import summary_figure, write_tsv
 from .report.fit_figure import plot_fit, write_fit_csv
-from .runtime.context import Context, context_of
-from .runtime.executors import make_executor
+from .runtime.batch import BatchRows, one_line, row_provenance, run_tasks
+from .runtime.context import context_of
 from .runtime.json_io import jsonable
-from .runtime.log import progress_bar
 from .runtime.provenance import provenance as make_provenance
 
 __all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expand_paths", "fit_many",
@@ -51,29 +49,16 @@ __all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expan
 
 log = logging.getLogger(__name__)
 
-#: file suffixes a folder is searched for (CSV and Chiaro text without optional packages;
-#: the others need afmformats, and give a row with the install command without it)
-READABLE_SUFFIXES = (".csv", ".tsv", ".txt", ".jpk-force", ".jpk-force-map", ".jpk-qi-data", ".jpk-qi-series",
-                     ".ibw", ".tab", ".h5", ".zip")
-
-
-_OUTPUT_MARK = b"# written by skin_indent"
-
 
 @dataclass(frozen=True)
-class BatchRow:
+class BatchRow(CurveLocation):
     """The result of one curve of a batch (or the error of a file that gave no curve).
 
     Attributes
     ----------
-    file : str
-        The file, as found (a folder's files as ``folder/name``).
-    index : int or None
-        Curve in the file, from 0 (None: the file could not be read).
-    grid_x, grid_y : int or None
-        Grid indices of a force-map curve.
-    x_mm, y_mm : float or None
-        Position of a force-map curve (mm).
+    file, index, grid_x, grid_y, x_mm, y_mm
+        Where the curve comes from (:class:`~skin_indent.measurement.curve_files.CurveLocation`:
+        the file, the curve in it from 0, a force map's grid indices and position in mm).
     radius_mm : float
         Sphere radius (mm).
     E_kPa, E_std_kPa : float
@@ -120,12 +105,6 @@ class BatchRow:
         The whole fit, kept only when asked for (``fit_many(..., keep_fits=True)``).
     """
 
-    file: str
-    index: int | None = None
-    grid_x: int | None = None
-    grid_y: int | None = None
-    x_mm: float | None = None
-    y_mm: float | None = None
     radius_mm: float = math.nan
     E_kPa: float = math.nan
     E_std_kPa: float = math.nan
@@ -151,24 +130,13 @@ class BatchRow:
     std: dict = field(default_factory=dict, compare=False)
     fit: object = field(default=None, repr=False, compare=False)
 
+    #: parameters with a column of their own (the table gets ``NAME`` and ``NAME_sd`` for the others)
+    own_parameters = ("E_kPa", "nu", "offset_mm")
+
     @property
     def trusted(self) -> bool:
         """No error and no flag: the numbers can be used as they are."""
         return not self.error and not self.flags
-
-    @property
-    def label(self) -> str:
-        """``name`` or ``name[index]`` (the file's name only)."""
-        name = Path(self.file).name
-        return name if self.index is None else f"{name}[{self.index}]"
-
-    def short_label(self, width: int = 28) -> str:
-        """:attr:`label` cut in the middle to at most ``width`` characters."""
-        text = self.label
-        if len(text) <= width:
-            return text
-        keep = (width - 3) // 2
-        return f"{text[:keep]}...{text[-(width - 3 - keep):]}"
 
     def to_dict(self) -> dict:
         """The row as a JSON-safe dict (without ``fit``)."""
@@ -183,7 +151,7 @@ class BatchRow:
 TSV_COLUMNS = tuple(f.name for f in fields(BatchRow) if f.name not in ("fit", "parameters", "std"))
 
 
-class BatchResult(list):
+class BatchResult(BatchRows):
     """The rows of :func:`fit_many` (a list of :class:`BatchRow`, in file and curve order).
 
     Attributes
@@ -198,86 +166,8 @@ class BatchResult(list):
     #: the columns of :func:`~skin_indent.report.batch_table.write_tsv`
     columns = TSV_COLUMNS
 
-    def __init__(self, rows=(), provenance=None, surfaces=()):
-        super().__init__(rows)
-        self.provenance = provenance or {}
-        self.surfaces = list(surfaces)
-
-    @property
-    def n_failed(self) -> int:
-        """Rows with an error."""
-        return sum(1 for r in self if r.error)
-
-    @property
-    def n_flagged(self) -> int:
-        """Rows fitted but flagged (numbers not to be trusted)."""
-        return sum(1 for r in self if not r.error and r.flags)
-
-    @property
-    def trusted(self) -> bool:
-        """Every row fitted without error or flag."""
-        return all(r.trusted for r in self)
-
 
 # ------------------------------------------------------------------ helpers
-def _one_line(err: BaseException) -> str:
-    """A one-line message: the text of the package's own errors, ``Type: text`` of others."""
-    text = " ".join(str(err).split())
-    if isinstance(err, (MeasurementError, ValueError)) and text:
-        return text
-    return f"{type(err).__name__}: {text}" if text else type(err).__name__
-
-
-def _written_by_us(path: Path) -> bool:
-    """True for an output of this package (a TSV table or fit CSV starts with its provenance line)."""
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(len(_OUTPUT_MARK)) == _OUTPUT_MARK
-    except OSError:
-        return False
-
-
-def expand_paths(paths, *, recursive: bool = False) -> list[Path]:
-    """Files to read: a file as given, a folder's files with a readable suffix (sorted).
-
-    Parameters
-    ----------
-    paths : path or iterable of paths
-        Files and folders. A folder's hidden files and folders and the package's own outputs
-        (a results table or fit CSV written there, recognised by their first line
-        ``# written by skin_indent``) are left out.
-    recursive : bool
-        Search the folders' subfolders too, at every depth (default: only the files directly
-        in each folder, so results and plot folders written inside it stay out of the way).
-
-    Returns
-    -------
-    list of Path
-        In the order given, each file once. A path that does not exist is kept (its row
-        will say so).
-    """
-    if isinstance(paths, (str, os.PathLike)):
-        paths = [paths]
-    out, seen = [], set()
-    for p in paths:
-        p = Path(os.fspath(p))
-        found = (folder_files(p, READABLE_SUFFIXES, recursive=recursive, skip=_written_by_us) if p.is_dir()
-                 else [p])
-        for q in found:
-            key = os.path.abspath(q)
-            if key not in seen:
-                seen.add(key)
-                out.append(q)
-    return out
-
-
-def _map_position(measurement) -> dict:
-    reader = measurement.columns.get("reader", {}) if isinstance(measurement.columns, dict) else {}
-    pos = reader.get("position_mm") or (None, None)
-    return {"grid_x": reader.get("grid_index_x"), "grid_y": reader.get("grid_index_y"),
-            "x_mm": pos[0], "y_mm": pos[1]}
-
-
 def _needed_depth(prepared) -> float:
     """The depth :func:`skin_indent.fitting.fit` asks of a surface for this curve (mm)."""
     depth = prepared.max_indentation_mm
@@ -296,15 +186,16 @@ def _surface_hash(surface) -> str:
     return str(origin["hash"]) if origin and "hash" in origin else str(getattr(surface, "hash", ""))
 
 
-def _fit_task(prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, context=None, mesh=None,
+def _fit_task(context, prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, mesh=None,
               free=()):
-    """One fit in a worker: ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
+    """One fit in a worker (:func:`~skin_indent.runtime.batch.run_tasks`; ``context`` is the worker's):
+    ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
     try:
         if model is not None:
             return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh), None
         return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0, free=free), None
     except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
-        return None, _one_line(err)
+        return None, one_line(err)
 
 
 def _row_of(base: dict, result, surface) -> BatchRow:
@@ -323,9 +214,20 @@ def _row_of(base: dict, result, surface) -> BatchRow:
         parameters=dict(result.parameters), std=dict(result.std))
 
 
-def _plot_name(row: BatchRow) -> str:
-    stem = Path(row.file).name
-    return stem if row.index is None else f"{stem}_{row.index}"
+def _prepared_rows(files, *, index, radius_mm, prepare_one, model=None) -> list:
+    """Every curve of ``files`` read and prepared here: a :class:`BatchRow` with its error, or
+    ``(location keywords, prepared curve)`` waiting for its fit."""
+    extra = {} if model is None else {"model": model}
+    rows: list = []
+    for where, m, error in read_curves(files, index=index, radius_mm=radius_mm):
+        if error is None:
+            try:
+                rows.append((where.location, prepare_one(m)))
+                continue
+            except Exception as err:  # noqa: BLE001 - a curve that cannot be prepared is one row
+                error = one_line(err)
+        rows.append(BatchRow(**where.location, error=error, **extra))
+    return rows
 
 
 # ------------------------------------------------------------------ fit_many
@@ -422,24 +324,9 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         return _fit_many_model(files, model or "neo-hooke", priors, index=index, radius_mm=radius_mm, fixed=fixed,
                                mesh=mesh, ctx=ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir,
                                command=command)
-    rows: list = []  # BatchRow, or (base, prepared) waiting for its fit
-    for path in files:
-        try:
-            curves = (load_curves(path, radius_mm=radius_mm) if index is None
-                      else [load_curve(path, radius_mm=radius_mm, index=index)])
-        except Exception as err:  # noqa: BLE001 - a bad file is one row
-            rows.append(BatchRow(file=os.fspath(path), index=index, error=_one_line(err)))
-            continue
-        for i, m in enumerate(curves):
-            k = m.columns.get("reader", {}).get("index", i if index is None else index)
-            base = {"file": os.fspath(path), "index": k, **_map_position(m)}
-            try:
-                prepared = prepare(m, window=window, contact=contact, contact_mm=fixed.get("offset_mm"),
-                                   radius_mm=radius_mm)
-            except Exception as err:  # noqa: BLE001
-                rows.append(BatchRow(**base, error=_one_line(err)))
-                continue
-            rows.append((base, prepared))
+    rows = _prepared_rows(files, index=index, radius_mm=radius_mm,
+                          prepare_one=lambda m: prepare(m, window=window, contact=contact,
+                                                        contact_mm=fixed.get("offset_mm"), radius_mm=radius_mm))
 
     mesh = "medium" if mesh is None else mesh
     # the surfaces, once each, here
@@ -460,7 +347,7 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
             try:
                 s = surface_for(radius, depth, context=ctx, mesh=mesh)
             except Exception as err:  # noqa: BLE001 - the curves of this group fail, the others go on
-                message = f"response surface for R = {radius:g} mm: {_one_line(err)}"
+                message = f"response surface for R = {radius:g} mm: {one_line(err)}"
                 for i in members:
                     rows[i] = BatchRow(**rows[i][0], radius_mm=radius, error=message)
                 continue
@@ -475,7 +362,7 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
     prov = make_provenance(command=command, inputs=files, settings=settings, surface=surfaces)
 
     x0 = None if x0 is None else np.asarray(x0, dtype=float)
-    tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol, x0, None, None, None, None, free))
+    tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol, x0, None, None, None, free))
              for i in pending if i in surface_of]
     _run(tasks, rows, ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir, prov=prov,
          surface_of=surface_of)
@@ -483,29 +370,20 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
 
 
 def _run(tasks, rows, ctx, *, progress, keep_fits, plot_dir, prov, surface_of=None, model=None) -> None:
-    """The fits of ``tasks`` on the context's executor, each result (or error) put in its row."""
-    if not tasks:
-        return
-    executor = make_executor(ctx.workers, client=ctx.client, scheduler=ctx.scheduler, tasks=len(tasks))
-    log.info("fitting %d curve%s on %s%s", len(tasks), "s" if len(tasks) != 1 else "", executor.name,
-             "" if model is None else f" (model {model})")
-    bar = progress_bar(progress if len(tasks) >= 2 else False, total=len(tasks), desc="fitting", unit="curve")
-    try:
-        for i, value, err in executor.imap_unordered(_fit_task, iter(tasks)):
-            base, prepared = rows[i]
-            result, message = value if err is None else (None, _one_line(err))
-            extra = {} if model is None else {"model": model}
-            if result is None:
-                rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, error=message, **extra)
-            else:
-                row = _row_of(base, result, None if surface_of is None else surface_of[i])
-                if plot_dir is not None:
-                    row = _write_plots(row, result, plot_dir, prov)
-                rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})
-            bar.update(1)
-    finally:
-        bar.close()
-        executor.close()
+    """The fits of ``tasks`` on the context's executor (:func:`~skin_indent.runtime.batch.run_tasks`),
+    each result (or error) put in its row as it arrives."""
+    extra = {} if model is None else {"model": model}
+    desc = "fitting" if model is None else f"fitting {model}"
+    for i, value, err in run_tasks(_fit_task, tasks, ctx, progress=progress, desc=desc):
+        base, prepared = rows[i]
+        result, message = value if err is None else (None, err)
+        if result is None:
+            rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, error=message, **extra)
+            continue
+        row = _row_of(base, result, None if surface_of is None else surface_of[i])
+        if plot_dir is not None:
+            row = _write_plots(row, result, plot_dir, prov)
+        rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})
 
 
 def _fit_many_model(files, model, priors, *, index, radius_mm, fixed, mesh, ctx, progress, keep_fits, plot_dir,
@@ -514,31 +392,15 @@ def _fit_many_model(files, model, priors, *, index, radius_mm, fixed, mesh, ctx,
     with :func:`skin_indent.fitting.fit` (``model=``) in a worker, whose surfaces go to the shared cache."""
     parse_model(model)  # one line for a bad model, before any file is read
     mesh = "coarse" if mesh is None else mesh
-    rows: list = []
-    for path in files:
-        try:
-            curves = (load_curves(path, radius_mm=radius_mm) if index is None
-                      else [load_curve(path, radius_mm=radius_mm, index=index)])
-        except Exception as err:  # noqa: BLE001 - a bad file is one row
-            rows.append(BatchRow(file=os.fspath(path), index=index, model=model, error=_one_line(err)))
-            continue
-        for i, m in enumerate(curves):
-            k = m.columns.get("reader", {}).get("index", i if index is None else index)
-            base = {"file": os.fspath(path), "index": k, **_map_position(m)}
-            try:
-                prepared = prepare_curve(m, radius_mm=radius_mm)
-            except Exception as err:  # noqa: BLE001
-                rows.append(BatchRow(**base, model=model, error=_one_line(err)))
-                continue
-            rows.append((base, prepared))
+    rows = _prepared_rows(files, index=index, radius_mm=radius_mm, model=model,
+                          prepare_one=lambda m: prepare_curve(m, radius_mm=radius_mm))
     pending = [i for i, r in enumerate(rows) if isinstance(r, tuple)]
     radii = sorted({rows[i][1].radius_mm for i in pending})
     settings = {"model": model, "radius_mm": radius_mm, "radii_mm": radii, "index": index, "fixed": fixed,
                 "priors": {k: list(v) for k, v in (priors or {}).items()}, "method": "lsq", "mesh": mesh}
     prov = make_provenance(command=command, inputs=files, settings=settings)
-    # each worker fits on one core; their surfaces and runs are shared through the cache
-    inner = Context(cache_dir=ctx.cache_dir, workers=1, progress=False)
-    tasks = [(i, (rows[i][1], None, "lsq", fixed, None, None, model, priors, inner, mesh)) for i in pending]
+    # each worker fits on one core (run_tasks); their surfaces and runs are shared through the cache
+    tasks = [(i, (rows[i][1], None, "lsq", fixed, None, None, model, priors, mesh)) for i in pending]
     _run(tasks, rows, ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir, prov=prov, model=model)
     return BatchResult(rows, provenance=prov)
 
@@ -549,15 +411,13 @@ def _fields(row: BatchRow) -> dict:
 
 def _write_plots(row: BatchRow, result, plot_dir, prov) -> BatchRow:
     """The plot and CSV of one fit; a failure to write becomes a flag of the row, not an error."""
-    name = _plot_name(row)
-    one = {**prov, "inputs": [i for i in prov.get("inputs", ())
-                              if i.get("path") == os.path.abspath(row.file)] or prov.get("inputs", []),
-           "curve": {"file": row.file, "index": row.index}}
+    name = row.plot_name
+    one = row_provenance(prov, row)
     try:
         plot_fit(result, Path(plot_dir) / f"{name}.png")
         write_fit_csv(result, Path(plot_dir) / f"{name}.csv", one)
     except Exception as err:  # noqa: BLE001
-        return BatchRow(**{**_fields(row), "flags": row.flags + (f"plot not written: {_one_line(err)}",)})
+        return BatchRow(**{**_fields(row), "flags": row.flags + (f"plot not written: {one_line(err)}",)})
     return row
 
 

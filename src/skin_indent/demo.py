@@ -12,6 +12,15 @@ homogeneous half-space leaves a structured misfit, and the diagnosis climbs the
 ladder of effects (:func:`skin_indent.diagnosis.diagnose`) until the model explains
 the curve to the noise, writing the ladder's report (``diagnosis/index.html``) and
 one sentence saying what was missing.
+
+Then it closes the loop: one curve cannot tell two layers from a layer with
+stiffening, and the diagnosis names the measurement that would separate them (a
+sphere of half the radius). The bundled curve of the same skin indented with that
+sphere (``forearm_like_R3.11mm.csv``, same independent code) is added, both curves are
+diagnosed together (:func:`~skin_indent.diagnosis.diagnose` with a list: the material
+shared, each curve its own sphere, contact point and noise), and the joint verdict, its
+report (``diagnosis-both/index.html``) and a figure of both curves with the final
+model and every rung's residuals (``loop.png``) say what was missing.
 """
 
 from __future__ import annotations
@@ -28,11 +37,14 @@ from .report import write_report
 from .fitting import PAPER_TOLERANCE, identify, surface_for
 from .measurement import load_csv, prepare
 from .report import save_figure
+from .report.sample_figure import sample_diagnosis_figure
 from .runtime.atomic import atomic_write
 from .runtime.json_io import dumps
-from .runtime.provenance import provenance, with_provenance
+from .runtime.provenance import provenance, surface_identity, with_provenance
 
 RADIUS_MM = 6.22
+#: the demo's second measurement: the same skin, a sphere of half the radius (its file gives R = 3.11 mm)
+SECOND_CURVE = "forearm_like_R3.11mm.csv"
 WINDOW_MM = (0.05, 0.6)
 PAPER_START = (10.0, 0.3)
 
@@ -42,7 +54,10 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
     """Run the demo, write ``demo.png`` and ``demo.json`` into ``out_dir``; return the summary.
 
     With ``diagnosis`` (default), go on with the diagnosis ladder of the same curve and
-    write its report into ``out_dir/diagnosis``. ``progress``: bars of the surface builds
+    write its report into ``out_dir/diagnosis``; then, where one curve leaves the verdict
+    ambiguous or a parameter undetermined, add the bundled curve of the same skin at half the
+    sphere's radius (the measurement the diagnosis proposes), diagnose both curves together,
+    write that report into ``out_dir/diagnosis-both`` and the figure ``loop.png``. ``progress``: bars of the surface builds
     (None, the default: only when stderr is a terminal). Every output carries the provenance of
     the run (``command``: the command line to record, default ``sys.argv``; the bundled
     curve with its sha256; the settings; the surface): ``demo.json`` under
@@ -94,17 +109,36 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
                                 "tol_ekf_paper": PAPER_TOLERANCE, "diagnosis": diagnosis})
     figure = out / "demo.png"
     _figure(data, surface, results, noise, figure, prov)
-    diag = page = None
+    diag = page = joint = joint_page = loop = None
     if diagnosis:
+        context = Context(cache_dir=cache_dir, workers=workers, progress=progress)
         echo("what is missing? the diagnosis ladder (finite-element fits in the loop where no surface combines "
              "the effects):")
         t = time.perf_counter()
-        diag = diagnose(measurement, context=Context(cache_dir=cache_dir, workers=workers, progress=progress))
+        diag = diagnose(measurement, context=context)
         for f in diag.ladder:
             echo(f"  {f.model:<32} RMS {f.rms_mN:.4f} mN  {'white' if f.white else 'structured'}")
         echo(diag.sentence())
+        # the report and demo.json record the diagnosis's surfaces too (demo.png: the paper's surface alone)
+        prov = {**prov, "surface": surface_identity([surface, *diag.surfaces])}
         page = write_report(diag, out / "diagnosis", provenance=prov)
         timings["diagnose"] = time.perf_counter() - t
+        if diag.verdict == "ambiguous" or diag.undetermined() or len(diag.confounded_with) > 1:
+            t = time.perf_counter()
+            second = load_csv(bundled_path(SECOND_CURVE))
+            echo(f"one curve cannot settle it; the measurement proposed: {diag.suggested_measurement or 'another sphere'}")
+            echo(f"adding the same skin indented with a sphere of R = {second.radius_mm:g} mm ({second.source}, "
+                 f"{second.n_points} points), and diagnosing both curves together:")
+            joint = diagnose([measurement, second], context=context)
+            for f in joint.ladder:
+                rms = ", ".join(f"{v:.4f}" for v in f.curve_rms_mN)
+                echo(f"  {f.model:<32} RMS ({rms}) mN  {'white' if f.white else 'structured'}")
+            echo(joint.sentence())
+            both = provenance(command=command, inputs=[source, bundled_path(SECOND_CURVE)],
+                              settings={"radius_mm": [RADIUS_MM, float(second.radius_mm)], "diagnosis": "joint"})
+            joint_page = write_report(joint, out / "diagnosis-both", provenance=both)
+            loop = save_figure(sample_diagnosis_figure(joint), out / "loop.png", both)
+            timings["diagnose_both"] = time.perf_counter() - t
     summary = {
         "data": str(measurement.source),
         "window_mm": list(WINDOW_MM),
@@ -114,10 +148,13 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
         "nu_profile": {"verdict": prof.verdict, "values": list(map(float, prof.values)),
                        "rms_mN": list(map(float, prof.rms_mN))},
         "diagnosis": diag.to_dict() if diag is not None else None,
+        "diagnosis_both": joint.to_dict() if joint is not None else None,
     }
     write_summary(out / "demo.json", summary, prov)
     echo(f"wrote {figure} (fit, residuals, parameter histories), "
-         + (f"the diagnosis report {page} (the ladder) " if page else "") + f"and {out / 'demo.json'}")
+         + (f"the diagnosis report {page} (the ladder) " if page else "")
+         + (f"the joint report {joint_page}, {loop} (both curves, every rung's residuals) " if joint_page else "")
+         + f"and {out / 'demo.json'}")
     return summary
 
 

@@ -8,7 +8,7 @@ logger (:mod:`skin_indent.runtime.log`; ``-v``/``-q`` on every command), progres
 only to a terminal unless ``--progress`` asks for them.
 
 - :mod:`.options`: what every command shares (exit statuses, one-line errors, option parsers);
-- :mod:`.simulate`, :mod:`.surface`, :mod:`.fit`, :mod:`.diagnose`, :mod:`.demo`: each command's
+- :mod:`.simulate`, :mod:`.surface`, :mod:`.fit`, :mod:`.diagnose`, :mod:`.plan`, :mod:`.demo`: each command's
   arguments and its runner.
 """
 
@@ -20,6 +20,7 @@ import sys
 from .demo import add_demo
 from .diagnose import add_diagnose
 from .fit import add_fit
+from .plan import add_plan
 from .options import (EXIT_FLAGGED, EXIT_INTERRUPTED, EXIT_OK, EXIT_STATUS, EXIT_USER_ERROR, FIX_ALIASES, CLIError,
                       parse_fix, parse_priors)
 from .simulate import MATERIALS, add_simulate
@@ -66,6 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_surface(sub)
     add_fit(sub)
     add_diagnose(sub)
+    add_plan(sub)
     _conventions(parser, top=True)
     return parser
 

@@ -6,8 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, parse_fix, parse_priors, parse_start,
-                      parse_window, positive_radius, progress_of, command_provenance)
+from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, command_provenance, number_or_numbers, one_value, parse_fix,
+                      parse_priors, parse_start, parse_window, per_file, positive_radius, progress_of, sample_curves)
+
 
 def add_fit(sub):
     p = sub.add_parser("fit", help="identify E and nu from a measured curve",
@@ -38,8 +39,14 @@ def add_fit(sub):
                         "radius is rescaled by similarity")
     p.add_argument("--window", default=None,
                    help="indentation depth window MIN:MAX in mm past the contact point (e.g. 0.05:0.6)")
-    p.add_argument("--radius", type=float, default=None,
-                   help="sphere radius, mm (default: the file's, else the skin sphere 6.22; AFM: e.g. 0.0275)")
+    p.add_argument("--radius", type=number_or_numbers, default=None, metavar="MM[,MM...]",
+                   help="sphere radius, mm (default: the file's, else the skin sphere 6.22; AFM: e.g. 0.0275); with "
+                        "--sample one per file, in order")
+    p.add_argument("--sample", action="store_true",
+                   help="the files are curves of ONE sample measured several ways (two spheres, two depths, two "
+                        "speeds, a ramp and a hold), fitted together: the material's parameters shared, each curve "
+                        "with its own sphere, contact point (offset_mm[2]...) and noise (the model path: --model, "
+                        "default neo-hooke)")
     p.add_argument("--start", default=None, help="start values E,nu (default: a Hertz estimate at nu = 0.4)")
     p.add_argument("--model", default=None, metavar="neo-hooke[+EFFECT...]",
                    help="fit this model, e.g. neo-hooke+layer+layer (two bonded layers) or neo-hooke+stiffening: "
@@ -57,8 +64,9 @@ def add_fit(sub):
     p.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
                    help="a Gaussian prior from an independent measurement (repeatable), e.g. --prior "
                         "thickness_mm=1.2:0.1 (ultrasound); implies the model path (--model, default neo-hooke)")
-    p.add_argument("--noise", type=float, default=None,
-                   help="noise standard deviation of a raw sample, mN (default: from the data)")
+    p.add_argument("--noise", type=number_or_numbers, default=None, metavar="MN[,MN...]",
+                   help="noise standard deviation of a raw sample, mN (default: from the data); with --sample one per "
+                        "file")
     p.add_argument("--contact", choices=("auto", "fit", "origin"), default=None,
                    help="contact point: auto (fitted if the curve has a pre-contact baseline, else recorded depth "
                         "0; default), fit (always fitted), origin (recorded depth 0)")
@@ -74,7 +82,8 @@ def add_fit(sub):
                         "prior, method, window, radius, mesh, noise, contact, start, tol, index, surface), or of "
                         "the provenance of a fit output (JSON, CSV, TSV or PNG); options given override it")
     p.add_argument("--save-profile", type=Path, default=None, metavar="FILE",
-                   help="write the settings of this run as a profile (TOML for a .toml name, else JSON)")
+                   help="write the settings of this run as a profile (TOML for a .toml name, else JSON), once the "
+                        "fit has succeeded (with several curves: once any curve was fitted); a failed fit writes none")
     p.set_defaults(run=_run_fit)
 
 
@@ -121,6 +130,10 @@ def _run_fit(args) -> int:
 
     _apply_profile(args)
     positive_radius(args.radius)
+    if args.sample:
+        return _fit_sample(args)
+    args.radius = one_value(args.radius, "--radius")
+    args.noise = one_value(args.noise, "--noise")
     if args.workers is not None and args.scheduler is not None:
         raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
     missing = [str(path) for path in args.data if not path.exists()]
@@ -149,12 +162,8 @@ def _run_fit(args) -> int:
                            "(--method lsq)")
     args.priors = priors
     window = parse_window(args.window) if args.window else None
-    if args.save_profile is not None:
-        from ..fitting.profile import write_profile
-
-        write_profile(_fit_settings(args, fixed, window, priors), args.save_profile)
-        if not args.json:
-            print(f"wrote the profile of this fit to {args.save_profile}")
+    if args.save_profile is not None and not args.save_profile.absolute().parent.is_dir():
+        raise CLIError(f"--save-profile {args.save_profile}: no such folder {args.save_profile.absolute().parent}")
     x0 = parse_start(args.start) if args.start else None
     surface = None
     if args.surface is not None:
@@ -174,6 +183,67 @@ def _run_fit(args) -> int:
                                "curve(s))")
             return _fit_one(args, curves[args.index or 0], surface, fixed, window, x0, context)
     return _fit_batch(args, surface, fixed, window, x0, context)
+
+
+def _fit_sample(args) -> int:
+    """Several files, one sample: one model fitted to every curve together (one curve per file, or
+    ``--index N`` of each)."""
+    from ..fitting import fit
+    from ..fitting.model_fit import parse_model
+    from ..runtime.context import Context
+
+    given = [o for o, v in (("--out", args.out), ("--window", args.window), ("--start", args.start),
+                            ("--surface", args.surface), ("--tol", args.tol), ("--profile", args.profile),
+                            ("--save-profile", args.save_profile), ("--recursive", args.recursive or None),
+                            ("--free", args.free or None),
+                            ("--contact", None if args.contact == "auto" else args.contact),
+                            ("--method", None if args.method == "lsq" else args.method)) if v is not None]
+    if given:
+        raise CLIError(f"{', '.join(given)}: not taken with --sample (the curves are prepared as diagnose prepares "
+                       "them and fitted together by least squares; --plot DIR and --json write the result)")
+    if args.scheduler is not None and args.workers is not None:
+        raise CLIError("--workers sets local processes; with --scheduler the Dask cluster decides")
+    model = args.model or "neo-hooke"
+    parse_model(model)  # one line for a bad model before any file is read
+    n = len(args.data)
+    radii, noise = per_file(args.radius, n, "--radius"), per_file(args.noise, n, "--noise")
+    curves = sample_curves(args, "fits")
+    fixed, priors = parse_fix(args.fix, any_name=True), parse_priors(args.prior)
+    context = Context(workers=args.workers, scheduler=args.scheduler, progress=progress_of(args, off=args.json))
+    result = fit(curves, model=model, fixed=fixed or None, priors=priors or None, noise_mN=noise, context=context,
+                 mesh=args.mesh or "coarse")
+    settings = {"model": model, "radius_mm": radii, "noise_mN": noise, "fixed": fixed,
+                "priors": {k: list(v) for k, v in priors.items()}, "mesh": args.mesh or "coarse", "index": args.index,
+                "sample": True}
+    prov = command_provenance(args, list(args.data), settings)
+    return _sample_output(args, result, prov)
+
+
+def _sample_output(args, result, prov) -> int:
+    """Write the figure and table of a fit of several curves, print its report or JSON and the flags."""
+    from ..runtime.json_io import dumps
+    from ..runtime.provenance import with_provenance
+
+    if args.plot is not None:
+        from ..report.sample_figure import plot_sample_fit, write_sample_fit_csv
+
+        args.plot.mkdir(parents=True, exist_ok=True)
+        stem = "+".join(p.stem for p in args.data)
+        figure = plot_sample_fit(result, args.plot / f"{stem}.png", provenance=prov)
+        table = write_sample_fit_csv(result, args.plot / f"{stem}.csv", prov)
+    if args.json:
+        print(dumps(with_provenance(result.to_dict(), prov)))
+    else:
+        print(result.report())
+        if args.plot is not None:
+            print(f"wrote {figure} and {table}")
+    label = " + ".join(str(p) for p in args.data)
+    for flag in result.flags:
+        print(f"skin-indent fit: warning: {label}: {flag}", file=sys.stderr)
+    if not result.success:
+        print(f"skin-indent fit: warning: {label}: the fit failed", file=sys.stderr)
+        return EXIT_FLAGGED
+    return EXIT_FLAGGED if (args.strict and result.flags) else EXIT_OK
 
 
 def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
@@ -202,8 +272,11 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     if chosen:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
                      noise_mN=args.noise, context=context, mesh=args.mesh)
-        return _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window,
-                                                                                                args.priors)))
+        settings = _fit_settings(args, fixed, window, args.priors)
+        code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+        if result.success:
+            _save_profile(args, settings)
+        return code
     if surface is not None:
         r_surface = surface.settings.get("radius_mm")
         if r_surface is not None and abs(r_surface - prepared.radius_mm) > 1e-9 * prepared.radius_mm:
@@ -214,8 +287,22 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
                                f"{prepared.radius_mm:g} mm") from None
     result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
                  context=context, mesh=args.mesh, free=args.free)
-    prov = command_provenance(args, _fit_inputs(args), _fit_settings(args, fixed, window), result.surface)
-    return _fit_output(args, path, result, prov)
+    settings = _fit_settings(args, fixed, window)
+    code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+    if result.success:  # a failed fit leaves no profile
+        _save_profile(args, settings)
+    return code
+
+
+def _save_profile(args, settings) -> None:
+    """``--save-profile``: the settings of a fit that ran, written atomically (called only after success)."""
+    if args.save_profile is None:
+        return
+    from ..fitting.profile import write_profile
+
+    write_profile(settings, args.save_profile)
+    if not args.json:
+        print(f"wrote the profile of this fit to {args.save_profile}")
 
 
 def _fit_inputs(args) -> list:
@@ -225,6 +312,7 @@ def _fit_inputs(args) -> list:
 
 def _fit_output(args, path, result, prov) -> int:
     """Write the plots, print the report or JSON and the flags; the exit status."""
+    from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
     from ..runtime.provenance import with_provenance
 
@@ -240,8 +328,9 @@ def _fit_output(args, path, result, prov) -> int:
         print(result.report())
         if args.plot is not None:
             print(f"wrote {args.plot / (path.stem + '.png')} and {args.plot / (path.stem + '.csv')}")
+    units = display_units(result.radius_mm)
     for flag in result.flags:
-        print(f"skin-indent fit: warning: {path}: {flag}", file=sys.stderr)
+        print(f"skin-indent fit: warning: {path}: {shown_in(flag, units)}", file=sys.stderr)
     if not result.success:  # a failed curve (exit 3 as a flagged one), said on stderr
         print(f"skin-indent fit: warning: {path}: the fit failed", file=sys.stderr)
         return EXIT_FLAGGED
@@ -250,6 +339,7 @@ def _fit_output(args, path, result, prov) -> int:
 
 def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     """Every curve of every file: one line (or TSV row) per curve; a bad file is a row, never the end."""
+    from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
     from ..batch import fit_many
     from ..report.batch_table import row_line, summary_figure, write_tsv
@@ -282,8 +372,11 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
               + (f"; wrote {args.out}" if args.out is not None else "")
               + (f"; figures in {args.plot}" if args.plot is not None else ""))
     for r in rows:
+        units = display_units(r.radius_mm)
         for flag in r.flags:
-            print(f"skin-indent fit: warning: {r.label}: {flag}", file=sys.stderr)
+            print(f"skin-indent fit: warning: {r.label}: {shown_in(flag, units)}", file=sys.stderr)
+    if len(rows) > rows.n_failed:  # a batch where no curve could be fitted leaves no profile
+        _save_profile(args, _fit_settings(args, fixed, window, args.priors))
     strict = True if args.strict is None else args.strict
     return EXIT_FLAGGED if (strict and not rows.trusted) else EXIT_OK
 

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -18,7 +19,8 @@ EXIT_STATUS = ("Messages: the phases of long work (surface builds, batches, the 
                "Results go to stdout. "
                "Exit status: 0 done; 2 a user error (a bad option or value, a missing or malformed file, a "
                "model that does not converge), one line on stderr; 3 a curve failed or was flagged as not to be "
-               "trusted (fit: with --strict, the default for several curves; a single fit that fails always) or a "
+               "trusted (fit: with --strict, the default for several curves; a single fit that fails always), a curve "
+               "of a batch of diagnoses failed (diagnose: with --strict, the default of a batch) or a "
                "finite-element run of a surface build failed; 130 interrupted (Ctrl-C).")
 
 
@@ -106,8 +108,35 @@ def parse_start(text):
 
 
 def positive_radius(radius):
-    if radius is not None and not (np.isfinite(radius) and radius > 0):
-        raise CLIError(f"--radius must be a positive number of mm, got {radius:g}")
+    for r in (radius if isinstance(radius, tuple) else (radius,)):
+        if r is not None and not (np.isfinite(r) and r > 0):
+            raise CLIError(f"--radius must be a positive number of mm, got {r:g}")
+
+
+def number_or_numbers(text: str):
+    """An option's value: one number, or several comma-separated (one per file of a sample: a tuple)."""
+    try:
+        values = tuple(float(x) for x in str(text).split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or comma-separated numbers, got {text!r}") from None
+    return values[0] if len(values) == 1 else values
+
+
+def per_file(value, n: int, option: str):
+    """``value`` of an option for ``n`` files of one sample: None, one for all, or one per file (a list)."""
+    if not isinstance(value, tuple):
+        return value
+    if len(value) != n:
+        raise CLIError(f"{option}: {len(value)} values for {n} files (give one, or one per file in order)")
+    return list(value)
+
+
+def one_value(value, option: str):
+    """``value`` where one number is needed (several values only go with --sample)."""
+    if isinstance(value, tuple):
+        raise CLIError(f"{option}: several values ({', '.join(f'{v:g}' for v in value)}) go with --sample, one per "
+                       "file of the sample; give one number")
+    return value
 
 
 def command_provenance(args, inputs, settings=None, surface=None, leave_out=()):
@@ -131,4 +160,36 @@ def progress_of(args, off: bool = False):
 def missing_subcommand(parser) -> int:
     parser.print_help(sys.stderr)
     return EXIT_USER_ERROR
+
+
+def sample_curves(args, verb: str) -> list:
+    """The curves of one sample (``--sample``): one curve per file (or ``--index N`` of each), each with its
+    own sphere radius (``--radius`` one per file, else each file's); one-line errors for fewer than two
+    files, a missing file, a folder (a batch of samples) or a file of several curves without ``--index``.
+
+    ``verb``: what the command does with them (``"fits"``, ``"diagnoses"``), for the messages.
+    """
+    from ..measurement import load_curves
+
+    if len(args.data) < 2:
+        raise CLIError(f"--sample {verb} several files as curves of one sample: give at least two")
+    missing = [str(path) for path in args.data if not path.exists()]
+    if missing:
+        raise CLIError(f"no such file or folder: {', '.join(missing)}")
+    folders = [str(path) for path in args.data if path.is_dir()]
+    if folders:
+        raise CLIError(f"{', '.join(folders)}: a folder is a batch of samples; --sample takes the files of one "
+                       "sample")
+    n = len(args.data)
+    radii = per_file(args.radius, n, "--radius")
+    out = []
+    for path, r in zip(args.data, radii if isinstance(radii, list) else [radii] * n):
+        found = load_curves(path, radius_mm=r)
+        if len(found) > 1 and args.index is None:
+            raise CLIError(f"{path}: {len(found)} curves; --index N picks the one of this sample")
+        k = args.index or 0
+        if not 0 <= k < len(found):
+            raise CLIError(f"{path}: --index {k} is out of range (the file has {len(found)} curve(s))")
+        out.append(found[k])
+    return out
 

@@ -4,8 +4,14 @@ physical effect is missing, add it and watch the error fall.
 - :mod:`skin_indent.inverse.residuals`: is a residual noise or structure, and where (statistics);
 - :mod:`skin_indent.fitting.multistart`: the fits of one diagnosis, each a :class:`Rung`;
 - :mod:`.identifiability`: what the curve determines, and which measurement would determine the rest;
-- :mod:`.evidence`: which measurement separates two candidates;
+- :mod:`.measurements`: the measurements a user can make next, what fitted models predict for
+  them (every finite-element run through one function), how far apart, what they would determine;
+- :mod:`.evidence`: which measurement separates two candidates (the diagnosis' sentence);
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
+- :mod:`.planning`: :func:`plan`, the next measurement: the candidates ranked by how well they
+  would separate the explanations a diagnosis left and determine its undetermined parameters;
+- :mod:`.batch`: :func:`diagnose_many`, every curve of files, folders and force maps, in parallel,
+  one :class:`DiagnosisRow` each;
 - :mod:`.report`: figures and a self-contained HTML page.
 
 The curve is prepared by :func:`skin_indent.measurement.prepare` (as for fits), and the
@@ -14,7 +20,10 @@ candidate effects are the registered ones (:mod:`skin_indent.effects`).
 
 from ..fitting.multistart import MODEL_ERROR, Rung
 from ..inverse.residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
+from .planning import Plan, plan
 from .workflow import Diagnosis, diagnose
+from .batch import DiagnosisBatch, DiagnosisRow, diagnose_many
 
-__all__ = ["MODEL_ERROR", "Diagnosis", "ResidualAnalysis", "Rung", "analyse_residuals", "describe_structure",
-           "diagnose", "effective_sample_size"]
+__all__ = ["MODEL_ERROR", "Diagnosis", "DiagnosisBatch", "DiagnosisRow", "Plan", "ResidualAnalysis", "Rung",
+           "analyse_residuals", "describe_structure", "diagnose", "diagnose_many", "effective_sample_size",
+           "plan"]

@@ -1,106 +1,146 @@
-"""Which measurement would separate two candidates that explain a curve about equally well."""
+"""Which measurement would separate two explanations that explain a curve about equally well.
+
+The sentence of a diagnosis (``suggested_measurement``), made by the machinery of
+:func:`~skin_indent.diagnosis.planning.plan` (:mod:`.measurements`: the same candidates,
+the same finite-element predictions, the same separation), on the diagnosis' three
+candidates only (:func:`weighed_candidates`), by the predicted forces alone (no
+Jacobian): the diagnosis stays as cheap as two runs per candidate.
+"""
 
 from __future__ import annotations
 
-import dataclasses
+import math
 
 import numpy as np
 
-from ..effects import DEPTH, HISTORY, effect
-from ..effects import Model
-from ..models import ComposedModel
-from ..response_surface import make_executor
+from ..models import JointModel
+from .measurements import (DEEPER, HOLD_S, Separation, acts_in_time, base_history, deeper, hold, model_of, predict,
+                           separation, sphere)
 
-#: length of the suggested hold at the deepest point, s
-HOLD_S = 30.0
+__all__ = ["compare", "suggest_measurement", "weighed_candidates"]
 
 
-def _model_force(effects: tuple, radius_mm: float, theta: dict, depth_mm: float, cache_dir=None) -> np.ndarray:
-    """Force (mN) of a forward FE run (coarse mesh) of ``effects`` with ``theta`` (a worker task), read from
-    or kept in the run cache of ``cache_dir`` (:class:`~skin_indent.response_surface.RunCache`; default
-    ``$SKIN_INDENT_CACHE`` or ``~/.cache/skin_indent``, where the command line keeps everything)."""
-    from ..models.effect_surface import model_force
-    from ..response_surface import RunCache
+def weighed_candidates(data, h_mm, rungs) -> list:
+    """The measurements a diagnosis weighs: a sphere of half the radius to the same depth, an
+    indentation :data:`~.measurements.DEEPER` times deeper with the same sphere, and, where an
+    explanation acts along the time history and the curve has time, a
+    :data:`~.measurements.HOLD_S` s hold at the deepest point.
 
-    return model_force(effects, radius_mm, theta, depth_mm, mesh="coarse", run_cache=RunCache(cache_dir))
+    Parameters
+    ----------
+    data : PreparedCurve
+        The recorded curve.
+    h_mm : ndarray
+        Its points' depth below the contact point in the diagnosis' choice (mm).
+    rungs : sequence of Rung
+        The explanations.
 
-
-def _run_task(a, radius_mm, depth_mm) -> tuple:
-    """Arguments of :func:`_model_force` for the fitted model ``a`` (contact shift left out)."""
-    effects = tuple(e for e in a.effects if effect(e).stage != DEPTH)
-    names = Model(effects, radius_mm).parameter_names
-    return effects, radius_mm, {k: v for k, v in a.parameters.items() if k in names}, depth_mm
-
-
-def _forward_differences(fitter, a, b, scenarios: dict) -> dict:
-    """``{label: max |F_a - F_b| (mN)}`` over forward FE runs of the two fitted models, for each
-    ``label: (radius_mm, depth_mm)`` of ``scenarios``; the runs go to the diagnosis' workers.
-    A scenario whose runs fail is left out."""
-    tasks = [((label, k), _run_task(f, radius, depth))
-             for label, (radius, depth) in scenarios.items() for k, f in enumerate((a, b))]
-    context = getattr(fitter, "context", None)
-    options = {} if context is None else {"workers": context.workers, "client": context.client,
-                                          "scheduler": context.scheduler}
-    if options.get("client") is not None or options.get("scheduler") is not None:
-        options.pop("workers")
-    forces = {}
-    with make_executor(tasks=len(tasks), **options) as executor:
-        for (label, k), value, error in executor.imap_unordered(_model_force, tasks):
-            if error is None:
-                forces[label, k] = value
-    return {label: float(np.max(np.abs(forces[label, 0] - forces[label, 1])))
-            for label in scenarios if (label, 0) in forces and (label, 1) in forces}
-
-
-def _hold_difference(fitter, a, b) -> float:
-    """Max |F_a - F_b| (mN) of the two fitted models over a hold at the deepest point after the loading."""
-    d = fitter.data
-    load = np.flatnonzero(d.kind == "approach")
-    end = int(load[np.argmax(d.depth_mm[load])]) + 1
-    t_end = float(d.time_s[end - 1])
-    t_hold = t_end + np.linspace(HOLD_S / 30, HOLD_S, 30)
-    history = dataclasses.replace(
-        d, depth_mm=np.r_[d.depth_mm[:end], np.full(30, d.depth_mm[end - 1])],
-        force_mN=np.r_[d.force_mN[:end], np.full(30, d.force_mN[end - 1])],
-        time_s=np.r_[d.time_s[:end], t_hold], kind=np.r_[d.kind[:end], np.full(30, "hold")])
-
+    Returns
+    -------
+    list of Candidate
+        Those that can be made (a sphere the depth does not exceed).
+    """
+    base = base_history(data, h_mm)
+    R, h = float(base.radius_mm), float(np.max(base.depth_mm))
     out = []
-    for f in (a, b):
-        m = f.bound_model
-        out.append(ComposedModel(m.core, m.effects, history).force(history.depth_mm, f.x))
-    return float(np.max(np.abs(out[0][end:] - out[1][end:])))
+    for make in (lambda: sphere(base, R / 2), lambda: deeper(base, DEEPER * h)):
+        try:
+            out.append(make())
+        except ValueError:  # deeper than the sphere: not a measurement to suggest
+            continue
+    if base.time_s is not None and any(acts_in_time(f.bound_model.effects) for f in rungs):
+        out.append(hold(base, HOLD_S))
+    return out
+
+
+def compare(rungs, candidates, noise_mN: float, *, mesh: str, context=None) -> list[tuple]:
+    """How far apart the first explanation and each other one predict each candidate.
+
+    Parameters
+    ----------
+    rungs : sequence of Rung
+        The explanations, the diagnosis' choice first.
+    candidates : sequence of Candidate
+    noise_mN : float
+        The recorded curve's noise (mN).
+    mesh : str
+        Mesh of the finite-element runs.
+    context : Context, optional
+        Where the runs go (all at once).
+
+    Returns
+    -------
+    list of (Candidate, dict, list of Separation)
+        Per candidate whose runs all succeeded: the predicted forces ``{model: ndarray}``
+        (mN at its points) and the separation of each other explanation from the first.
+    """
+    tasks = {}
+    for f in rungs:
+        effects, theta = model_of(f, jacobian=False)
+        for k, c in enumerate(candidates):
+            tasks[(f.model, k)] = (effects, theta, c.curve, mesh, False)
+    got = predict(tasks, context=context)
+    out = []
+    for k, c in enumerate(candidates):
+        values = [got.get((f.model, k)) for f in rungs]
+        if any(not isinstance(v, tuple) for v in values):
+            continue  # a measurement we cannot predict is not suggested
+        forces = {f.model: v[0] for f, v in zip(rungs, values)}
+        a = rungs[0].model
+        out.append((c, forces, [separation(a, f.model, forces[a], forces[f.model], noise_mN) for f in rungs[1:]]))
+    return out
+
+
+def _names(a, b) -> tuple[str, str]:
+    """How the sentence names two explanations: the effect each adds on one rung, else their sets of effects."""
+    if len(a.effects) == len(b.effects) and a.effects[:-1] == b.effects[:-1]:
+        return a.effects[-1], b.effects[-1]
+    return "+".join(a.effects), "+".join(b.effects)
+
+
+def sentence(candidate, s: Separation, ea: str, eb: str, noise_mN: float) -> str:
+    """``"<measurement> would separate <ea> from <eb>: ..."`` with the separation's numbers."""
+    return (f"{candidate.label} would separate {ea} from {eb}: the fitted models differ there by up to "
+            f"{s.max_difference_mN:.3g} mN, {s.max_difference_mN / noise_mN:.1f} times the noise, and by "
+            f"{s.separation:.3g} noise units in root-sum-square over its {s.points} points")
 
 
 def suggest_measurement(fitter, a, b) -> str:
-    """Which extra measurement separates two fitted candidates, with the predicted difference.
+    """Which extra measurement separates two fitted explanations, with the predicted difference.
 
-    Compared: (i) a sphere of half the radius and (ii) an indentation 1.5 times deeper,
-    by forward finite-element runs of the two fitted models (where both have a
-    finite-element form and need no time history); (iii) a 30 s hold at the deepest
-    point, from the two fitted models themselves (where one of them acts along the time
-    history).
+    The diagnosis' candidates (:func:`weighed_candidates`) are predicted by both fitted
+    models (:func:`compare`: finite-element runs at the fitted values, all at once in the
+    diagnosis' workers), and the one whose predicted curves lie furthest apart in
+    root-sum-square noise units (:func:`~.measurements.separation`) is named, with the
+    largest difference (mN, and over the noise).
+
+    Parameters
+    ----------
+    fitter : Fitter
+        The diagnosis' fits (the recorded curve, its noise, the mesh, the context); for several
+        curves of one sample, the measurements are of the first curve (its sphere, its history,
+        its noise).
+    a, b : Rung
+        The diagnosis' choice and its rival.
+
+    Returns
+    -------
+    str
+        One sentence (without a final full stop).
     """
-    out = {}
-    objs = [effect(e) for e in (*a.effects, *b.effects)]
-    if not any(e.needs_history for e in objs):
-        hmax, R = fitter.max_depth, fitter.radius_mm
-        scenarios = {f"a sphere of half the radius (R = {R / 2:.3g} mm) to the same depth": (R / 2, hmax),
-                     f"an indentation 1.5 times deeper ({1.5 * hmax:.3g} mm)": (R, 1.5 * hmax)}
-        try:
-            out.update(_forward_differences(fitter, a, b, scenarios))
-        except Exception:  # noqa: BLE001 - a measurement we cannot predict is not suggested
-            pass
-    if fitter.data.time_s is not None and any(e.stage == HISTORY for e in objs):
-        try:
-            out[f"a {HOLD_S:g} s hold at the deepest point"] = _hold_difference(fitter, a, b)
-        except Exception:  # noqa: BLE001
-            pass
-    if len(a.effects) == len(b.effects) and a.effects[:-1] == b.effects[:-1]:
-        ea, eb = a.effects[-1], b.effects[-1]  # two candidates on the same rung
-    else:
-        ea, eb = "+".join(a.effects), "+".join(b.effects)  # two explanations (sets of effects)
-    if not out:
+    ea, eb = _names(a, b)
+    data, model, x = fitter.data, a.bound_model, a.x
+    if isinstance(model, JointModel):  # several curves of one sample: measurements like the first curve
+        data = fitter.curves[0]
+        model, x = model.part(0, x)
+    try:
+        h = np.asarray(model.evaluate(x).h_mm, dtype=float)
+        candidates = weighed_candidates(data, h, (a, b))
+        rows = compare((a, b), candidates, fitter.noise_mN, mesh=fitter.mesh, context=getattr(fitter, "context", None))
+    except ValueError:  # no measurement we can predict: none suggested
+        rows = []
+    rows = [(c, s[0]) for c, _, s in rows if math.isfinite(s[0].separation)]
+    if not rows:
         return "no extra measurement computed here separates them"
-    label, diff = max(out.items(), key=lambda kv: kv[1])
-    return (f"{label} would separate {ea} from {eb}: the fitted models differ there by up to {diff:.3g} mN, "
-            f"{diff / fitter.noise_mN:.1f} times the noise")
+    c, s = max(rows, key=lambda r: r[1].separation)
+    return sentence(c, s, ea, eb, fitter.noise_mN)

@@ -37,7 +37,8 @@ import numpy as np
 
 from ..effects import ELASTIC
 from ..inverse.result import jacobian_covariance
-from ..models import ComposedModel
+from ..models import ComposedModel, JointModel
+from ..fitting.multistart import MODEL_ERROR
 from ..models.fe_core import FECore
 from ..response_surface import RunCache
 from ..runtime.executors import available_cpus
@@ -399,6 +400,8 @@ def assess(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
         One per alternative, in order.
     """
     model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
+    if isinstance(model, JointModel):
+        return assess_sample(fitter, rung, alternatives)
     try:
         h_max = float(np.max(_indentation(model, x)))
     except Exception as err:  # noqa: BLE001 - nothing to assess: no alternative is suggested
@@ -481,3 +484,62 @@ def suggestion(name: str, value: float, predictions) -> str:
 
 
 # ----------------------------------------------------------------------------- physical limits
+
+
+# ----------------------------------------------------------------------------- several curves
+def curve_rung(rung, k: int):
+    """Curve ``k``'s part of a rung fitted to several curves of one sample: its composed model, fit
+    vector and predicted forces (what :func:`alternative_jacobian` takes)."""
+    model = rung.bound_model
+    part, x = model.part(k, rung.x)
+    return dataclasses.replace(rung, bound_model=part, x=x, prediction_mN=np.asarray(rung.prediction_mN)[model.slices[k]],
+                               covariance=None, at_bounds=())
+
+
+def assess_sample(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
+    """:func:`assess` of a rung fitted to several curves of one sample.
+
+    The recorded measurement (:data:`RECORDED`) is every curve (the finite-element Jacobian of
+    each curve in its rows); another measurement is ADDED to them: the first curve as that
+    alternative would record it (a sphere of twice the radius...), its information summed with
+    the recorded curves' (the user fits them all together).
+    """
+    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
+    names = model.parameter_names
+    held = _held(rung)
+    free = [names.index(n) for n in rung.free_names if n not in held]
+    first = curve_rung(rung, 0)
+    radius = float(first.bound_model.data.radius_mm)
+
+    def jacobian(k, a):
+        """Rows of curve ``k`` as ``a`` would record it, in the joint columns; its sigma and its runs."""
+        J, force, runs = alternative_jacobian(fitter, curve_rung(rung, k), a.radius_factor, a.depth_factor)
+        rows = np.zeros((J.shape[0], x.size))
+        rows[:, model.index(k)] = J
+        sigma = np.sqrt(fitter.noises_mN[k] ** 2 + (MODEL_ERROR * np.abs(force)) ** 2)
+        return rows, sigma, runs
+
+    try:
+        h_max = float(np.max(_indentation(first.bound_model, first.x)))
+        recorded = [jacobian(k, RECORDED) for k in range(len(model.parts))]
+    except Exception as err:  # noqa: BLE001 - nothing to assess: no alternative is suggested
+        return [Prediction(a, a.short, None, f"{type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}")
+                for a in alternatives]
+    J0 = np.vstack([r for r, _, _ in recorded])
+    s0 = np.concatenate([s for _, s, _ in recorded])
+    runs0 = sum(n for _, _, n in recorded)
+    out = []
+    for a in alternatives:
+        label = a.describe(radius, h_max) if a is not RECORDED else "these measurements"
+        if a is RECORDED:
+            out.append(Prediction(a, label, reported_std(model, x, J0, s0, free), None, runs0))
+            continue
+        try:
+            J, sigma, runs = jacobian(0, a)
+        except Exception as err:  # noqa: BLE001 - a failed alternative is not suggested
+            out.append(Prediction(a, "adding " + label, None, f"{type(err).__name__}: {str(err).splitlines()[0]}"))
+            continue
+        std = reported_std(model, x, np.vstack([J0, J]), np.concatenate([s0, sigma]), free)
+        out.append(Prediction(a, "adding " + label, std, None, runs))
+    return out
+

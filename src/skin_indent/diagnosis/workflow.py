@@ -61,9 +61,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..effects import EFFECTS, WEIGHED, effect, instances
-from ..measurement import SEGMENTS, PreparedCurve
+from ..measurement import SEGMENTS, CurveSet, PreparedCurve
 from .evidence import suggest_measurement
-from ..fitting.model_fit import curve_noise, prepare_curve
+from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_sample, sample_noise
+from ..fitting.knowledge import DETERMINED_BY
 from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung, evidence
 from ..models.composed import at_physical_limit
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
@@ -190,6 +191,10 @@ class Diagnosis:
     #: how the diagnosis was made (:func:`skin_indent.runtime.provenance.provenance`): the API call
     #: of :func:`diagnose`, its arguments and the curve's data digest
     provenance: dict = field(default_factory=dict, repr=False)
+    #: the curves diagnosed, in input order (one: ``[data]``), each curve's noise (mN) and its source
+    curves: list = field(default_factory=list, repr=False)
+    noises_mN: list = field(default_factory=list)
+    noise_sources: list = field(default_factory=list)
 
     @property
     def current(self) -> Rung:
@@ -198,6 +203,12 @@ class Diagnosis:
     @property
     def base(self) -> Rung:
         return self.ladder[0]
+
+    @property
+    def surfaces(self) -> tuple:
+        """The response surfaces (and finite-element cores) the fits of the diagnosis used, as its
+        provenance records them (:func:`~skin_indent.runtime.provenance.surface_identity`)."""
+        return self.fitter.cores if self.fitter is not None else ()
 
     @property
     def missing(self) -> tuple:
@@ -248,6 +259,26 @@ class Diagnosis:
             text += f" {reason}."
         return text
 
+    @property
+    def joint(self) -> bool:
+        """Several curves of one sample were diagnosed together."""
+        return len(self.curves) > 1
+
+    @property
+    def _these(self) -> str:
+        return f"these {len(self.curves)} curves" if self.joint else "this curve"
+
+    def _rms(self, f: Rung, digits: int = 3) -> str:
+        """A rung's RMS as the sentences show it (mN): each curve's, in input order, for several."""
+        if self.joint and len(f.curve_rms_mN) > 1:
+            return "(" + ", ".join(f"{v:.{digits}g}" for v in f.curve_rms_mN) + ")"
+        return f"{f.rms_mN:.{digits}g}"
+
+    def _noise(self, digits: int = 3) -> str:
+        if self.joint:
+            return "(" + ", ".join(f"{v:.{digits}g}" for v in self.noises_mN) + ")"
+        return f"{self.noise_mN:.{digits}g}"
+
     def _verdict_sentence(self) -> str:
         cur, base = self.current, self.ladder[self.n_given]
         first = self.steps[0] if self.steps else None
@@ -261,13 +292,13 @@ class Diagnosis:
             if self.verdict not in ("none", "unexplained") and first is not None:  # named, not added (max_rungs = 0)
                 top = first.ranking[0]
                 return (f"The {cur.model} model fails ({cur.structure}); the missing effect is {self.verdict}: "
-                        f"adding it lowers the RMS from {cur.rms_mN:.3g} to {top.rms_mN:.3g} mN (noise "
-                        f"{self.noise_mN:.3g} mN) and the BIC by {first.rung.bic - top.bic:.1f}." + provisional)
+                        f"adding it lowers the RMS from {self._rms(cur)} to {self._rms(top)} mN (noise "
+                        f"{self._noise()} mN) and the BIC by {first.rung.bic - top.bic:.1f}." + provisional)
             if self.explained:
-                return (f"The {cur.model} model explains this curve to the noise level ({cur.rms_mN:.3g} mN RMS "
-                        f"against {self.noise_mN:.3g} mN noise): no missing effect is needed." + provisional)
-            text = (f"The {cur.model} model does not explain this curve ({cur.rms_mN:.3g} mN RMS against "
-                    f"{self.noise_mN:.3g} mN noise; {cur.structure})")
+                return (f"The {cur.model} model explains {self._these} to the noise level ({self._rms(cur)} mN RMS "
+                        f"against {self._noise()} mN noise): no missing effect is needed." + provisional)
+            text = (f"The {cur.model} model does not explain {self._these} ({self._rms(cur)} mN RMS against "
+                    f"{self._noise()} mN noise; {cur.structure})")
             if untried:
                 return (text + f"; of the effects fitted, none lowers the BIC by more than {STRONG:g}, and the verdict "
                         f"is provisional: {untried}.")
@@ -275,11 +306,11 @@ class Diagnosis:
                        else "not among the effects tested")
             return (text + f", and no effect {self._tested()} lowers the BIC by more than {STRONG:g}: what is "
                     f"missing is {outside}.")
-        rms = " -> ".join(f"{f.rms_mN:.3g}" for f in self.ladder[self.n_given:])
+        rms = " -> ".join(self._rms(f) for f in self.ladder[self.n_given:])
         what = " and ".join(_plural(self.missing))
-        text = f"What the {base.model} model misses: {what} (RMS {rms} mN against {self.noise_mN:.3g} mN noise)"
+        text = f"What the {base.model} model misses: {what} (RMS {rms} mN against {self._noise()} mN noise)"
         if self.explained:
-            text += f"; the {cur.model} model explains the curve to the noise."
+            text += f"; the {cur.model} model explains {'the curve' if not self.joint else 'every curve'} to the noise."
         elif untried and not any(s.rung.effects == cur.effects for s in self.steps):  # stopped at max_rungs
             text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}) and was not "
                      f"examined further, so the verdict is provisional: {untried}.")
@@ -303,24 +334,45 @@ class Diagnosis:
 
     def report(self) -> str:
         """The diagnosis as text (what ``skin-indent diagnose`` prints)."""
-        d = self.data
-        lines = [f"data: {d.source} ({d.n} points" + (f", bins of {d.binned}" if d.binned > 1 else "") + "; "
-                 + ", ".join(f"{k} {np.count_nonzero(d.kind == k)}" for k in ("approach", "hold", "retract")
-                             if np.any(d.kind == k)) + f"), sphere R = {self.radius_mm:g} mm",
-                 f"noise: {self.noise_mN:.4g} mN, {self.noise_source}; model error {100 * MODEL_ERROR:g}% of the "
-                 f"force added in quadrature; effective sample size {self.n_effective:.1f} (every BIC below)"]
-        if d.baseline is not None:
-            lines.append(f"baseline force subtracted: {d.baseline_mN:.4g} mN at the contact point (pre-contact "
-                         "part)")
-        lines += [f"note: {n}" for n in d.notes]
-        lines.append("ladder:")
+        curves = self.curves or [self.data]
+        noises = self.noises_mN or [self.noise_mN]
+        sources = self.noise_sources or [self.noise_source]
+        lines = [f"{len(curves)} curves of one sample, diagnosed together (the material shared, each curve its own "
+                 "sphere, contact point and noise):"] if self.joint else []
+        for k, (d, noise, source) in enumerate(zip(curves, noises, sources)):
+            head = f"curve {k + 1}: " if self.joint else "data: "
+            lines.append(f"{head}{d.source} ({d.n} points" + (f", bins of {d.binned}" if d.binned > 1 else "") + "; "
+                         + ", ".join(f"{kind} {np.count_nonzero(d.kind == kind)}"
+                                     for kind in ("approach", "hold", "retract") if np.any(d.kind == kind))
+                         + f"), sphere R = {d.radius_mm:g} mm")
+            if self.joint:
+                lines.append(f"  noise: {noise:.4g} mN, {source}")
+            if d.baseline is not None:
+                lines.append(f"{'  ' if self.joint else ''}baseline force subtracted: {d.baseline_mN:.4g} mN at the "
+                             "contact point (pre-contact part)")
+            lines += [f"{'  ' if self.joint else ''}note: {n}" for n in d.notes]
+        errors = (f"model error {100 * MODEL_ERROR:g}% of the force added in quadrature; effective sample size "
+                  f"{self.n_effective:.1f} (every BIC below")
+        if self.joint:
+            lines.append(errors + ", all curves together)")
+        else:
+            lines.insert(1, f"noise: {self.noise_mN:.4g} mN, {self.noise_source}; {errors})")
+        lines.append("ladder:" + (" (RMS of each curve, in input order)" if self.joint else ""))
         for f in self.ladder:
             how = f", finite elements in the loop ({f.forward_runs} runs)" if f.forward_runs else ""
-            lines.append(f"  {f.model:<28} RMS {f.rms_mN:.4g} mN  BIC {f.bic:9.1f}  "
+            lines.append(f"  {f.model:<28} RMS {self._rms(f, 4)} mN  BIC {f.bic:9.1f}  "
                          f"{'white' if f.white else 'structured'}  {_fmt_params(f)}{how}")
         for f in self.alternatives:
-            lines.append(f"  (other explanation) {f.model:<20} RMS {f.rms_mN:.4g} mN  BIC {f.bic:9.1f}  "
+            lines.append(f"  (other explanation) {f.model:<20} RMS {self._rms(f, 4)} mN  BIC {f.bic:9.1f}  "
                          f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
+        for name, k in self.current.priors.items():
+            lines.append(f"  what you know, {name}: prior {k['prior_mean']:.4g} +- {k['prior_sd']:.2g}, with the data "
+                         f"{k['posterior']:.4g} +- {k['posterior_sd']:.2g} ({DETERMINED_BY[k['determined_by']]})"
+                         + (f"; IN TENSION with the data ({k['tension_sd']:.1f} combined sd apart)"
+                            if k["in_tension"] else ""))
+        for name, v in (self.fitter.fixed.items() if self.fitter is not None else ()):
+            if name in self.current.parameters:
+                lines.append(f"  what you know, {name}: held at {v:g}")
         fe = [k for k, v in self.std_source.items() if v == FROM_FE]
         if fe:
             lines.append(f"  standard deviations of {_listed(fe)} ({self.current.model}): {FROM_FE} at the fitted "
@@ -329,7 +381,7 @@ class Diagnosis:
             lines.append(f"where {step.rung.model} fails: {step.rung.structure}")
             lines.append("candidates (delta BIC > 0: better than that model):")
             for f in step.ranking:
-                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {f.rms_mN:.4g} mN  "
+                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, 4)} mN  "
                              f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
             for k, v in step.not_detectable.items():
                 if v.startswith("not fitted"):
@@ -352,25 +404,32 @@ class Diagnosis:
 
         def rung(f):
             return {"model": f.model, "effects": list(f.effects), "parameters": f.parameters, "std": f.std,
-                    "std_source": sources(f), "rms_mN": f.rms_mN, "bic": f.bic, "white": f.white,
-                    "structure": f.structure, "forward_runs": f.forward_runs, "at_bounds": list(f.at_bounds)}
+                    "std_source": sources(f), "rms_mN": f.rms_of_curves, "bic": f.bic, "white": f.white,
+                    "structure": f.structure, "forward_runs": f.forward_runs, "at_bounds": list(f.at_bounds),
+                    "priors": f.priors}
 
         def candidate(step, f):
             return {"effect": f.effects[-1], "delta_bic": step.rung.bic - f.bic, **f.summary(),
                     "std_source": sources(f)}
 
+        curves = [{"data": c.source, "n_points": c.n, "binned": c.binned, "radius_mm": c.radius_mm,
+                   "noise_mN": s, "noise_source": w, "baseline_mN": c.baseline_mN}
+                  for c, s, w in zip(self.curves, self.noises_mN, self.noise_sources)]
+        if self.joint:
+            head = {"data": [c["data"] for c in curves], "n_points": self.data.n, "curves": curves,
+                    "radius_mm": [c["radius_mm"] for c in curves], "noise_mN": list(self.noises_mN),
+                    "noise_source": list(self.noise_sources)}
+        else:
+            head = {"data": self.data.source, "n_points": self.data.n, "binned": self.data.binned,
+                    "radius_mm": self.radius_mm, "noise_mN": self.noise_mN, "noise_source": self.noise_source}
         return jsonable({
-            "data": self.data.source,
-            "n_points": self.data.n,
-            "binned": self.data.binned,
+            **head,
             "bic_formula": Rung.BIC_FORMULA,
-            "radius_mm": self.radius_mm,
-            "noise_mN": self.noise_mN,
-            "noise_source": self.noise_source,
             "model_error": MODEL_ERROR,
             "n_effective": self.n_effective,
-            "baseline_mN": self.data.baseline_mN,
-            "contact_point_mm": float(contact),
+            **({} if self.joint else {"baseline_mN": self.data.baseline_mN, "contact_point_mm": float(contact)}),
+            "fixed": dict(self.fitter.fixed) if self.fitter is not None else {},
+            "priors": ({k: list(v) for k, v in self.fitter.priors.items()} if self.fitter is not None else {}),
             "base": rung(base),
             "current": rung(cur),
             "explained": self.explained,
@@ -452,8 +511,14 @@ def explained(rung: Rung, fitter: Fitter) -> bool:
     p = min(a.runs_p, a.ljung_box_p)
     # borderline tests (alpha / 10 < p <= alpha) count as structure only where a range departs
     structureless = p > a.alpha or (p > a.alpha / 10 and rung.structure == NO_STRUCTURE)
-    allowed = ALLOWANCE * float(np.sqrt(np.mean(fitter.sigma(rung.prediction_mN) ** 2)))
-    return bool(structureless and rung.rms_mN <= allowed)
+    sigma = fitter.sigma(rung.prediction_mN)
+    if not fitter.joint:
+        allowed = ALLOWANCE * float(np.sqrt(np.mean(sigma**2)))
+        return bool(structureless and rung.rms_mN <= allowed)
+    # several curves of one sample: every curve to its own noise (with the model error)
+    within = all(rms <= ALLOWANCE * float(np.sqrt(np.mean(sigma[sl] ** 2)))
+                 for rms, sl in zip(rung.curve_rms_mN, fitter.data.slices))
+    return bool(structureless and within)
 
 
 def settled(rung: Rung, fitter: Fitter) -> bool:
@@ -498,7 +563,6 @@ class Scores:
 
 def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
     """Fit every candidate on top of the rung ``key`` and rank them by BIC."""
-    data, sigma = fitter.data, fitter.noise_mN
     current = fitter.fit(key)
     not_detectable: dict[str, str] = {}
     tried, weighed, wanted = [], [], []
@@ -506,7 +570,7 @@ def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
         e = effect(name)
         if name in key and not e.repeatable:
             continue
-        why = e.visible(data, sigma)
+        why = fitter.visible(e)
         if why is not None:
             not_detectable[name] = why
             continue
@@ -565,7 +629,7 @@ def _fittable(fitter: Fitter, key: tuple, candidates) -> list[str]:
     out = []
     for name in candidates:
         e = effect(name)
-        if e.stage != WEIGHED and (name not in key or e.repeatable) and e.visible(fitter.data, fitter.noise_mN) is None:
+        if e.stage != WEIGHED and (name not in key or e.repeatable) and fitter.visible(e) is None:
             out.append(name)
     return out
 
@@ -640,24 +704,31 @@ def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
 
 @records_call("skin_indent.diagnose", data="measurement",
               leave_out=("context", "cache_dir", "workers", "client", "scheduler", "progress"))
-def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, add=(), noise_mN: float | None = None,
+def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=None,
              segments=SEGMENTS, max_rungs: int = 3, in_loop: bool = True, context=None, mesh: str = "coarse",
-             **build) -> Diagnosis:
+             fixed: dict | None = None, priors: dict | None = None, **build) -> Diagnosis:
     """Compare the model with a measured curve, name the effects it misses and add them.
 
     Parameters
     ----------
-    measurement : Measurement or PreparedCurve
-        Depth (mm), force (mN) and, if recorded, time (s): every segment is used.
-    radius_mm : float, optional
-        Sphere radius, mm; default the measurement's (else the skin default 6.22 mm).
+    measurement : Measurement or PreparedCurve, or a list of them
+        Depth (mm), force (mN) and, if recorded, time (s): every segment is used. A list
+        is several curves of ONE sample (two spheres, two depths, two speeds, a ramp and a
+        ramp-hold), diagnosed together: the material's and the effects' parameters are
+        shared, each curve keeps its own sphere radius, contact point, baseline and noise,
+        and every residual is weighed by its own curve's noise; the ladder, the BIC and the
+        verdict are computed on all curves together (each rung also reports every curve's
+        RMS: :attr:`Rung.curve_rms_mN`).
+    radius_mm : float or list of float, optional
+        Sphere radius, mm; default the measurement's (else the skin default 6.22 mm). For
+        several curves, one per curve (or one for all).
     candidates : sequence of str, optional
         Effects to test (default: every registered effect).
     add : sequence of str
         Effects added to the base model by hand, in order: each is a rung of the
         ladder (``("layer", "layer")``: two layers), and the diagnosis goes on from the last.
-    noise_mN : float, optional
-        Noise standard deviation, mN; default estimated from the data.
+    noise_mN : float or list of float, optional
+        Noise standard deviation, mN (one per curve for several); default estimated from the data.
     segments : sequence of str
         Kinds of motion to diagnose (default all: ``approach``, ``hold``, ``retract``);
         only trailing ones can be left out.
@@ -684,6 +755,14 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
         0.03% of ``"medium"`` at 0.6 mm (the mesh-convergence study of
         ``examples/ex03``), ten times below :data:`MODEL_ERROR`, and layered runs cost
         a third.
+    fixed : dict, optional
+        What the user knows exactly, by the names results report (``{"thickness_mm": 1.2}``,
+        ``{"nu": 0.45}``): held in every model that has the parameter.
+    priors : dict, optional
+        What the user knows with an uncertainty, ``{name: (mean, sd)}`` (a dermis thickness
+        from ultrasound: ``{"thickness_mm": (1.2, 0.1)}``): a Gaussian prior in every model that
+        has the parameter (:func:`~skin_indent.fitting.fit_model`); each rung's ``priors`` says
+        whether the data or the prior determined it, and whether they agree.
 
     Returns
     -------
@@ -701,11 +780,20 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
             raise ValueError(f"add {name}: it is weighed, not fitted; no fitted model has it yet")
     if isinstance(max_rungs, bool) or not isinstance(max_rungs, int) or max_rungs < 0:
         raise ValueError(f"max_rungs must be an integer >= 0, got {max_rungs!r}")
-    data = prepare_curve(measurement, radius_mm=radius_mm, segments=segments)
-    sigma, source = curve_noise(data, noise_mN)
-    fitter = Fitter(data, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop)
-    log.info("diagnosing %d points (%s), noise %.3g mN, sphere R = %g mm, mesh %s; finite elements in the loop %s",
-             data.n, ", ".join(segments), sigma, data.radius_mm, mesh, "allowed" if in_loop else "off")
+    if is_several(measurement):
+        curves = prepare_sample(measurement, radius_mm=radius_mm, segments=segments)
+        sigmas, sources = sample_noise(curves, noise_mN)
+        data, sigma, source = CurveSet(tuple(curves)), sigmas[0], sources[0]
+    else:
+        data = prepare_curve(measurement, radius_mm=radius_mm, segments=segments)
+        sigma, source = curve_noise(data, noise_mN)
+        curves, sigmas, sources = [data], [sigma], [source]
+    check_known(fixed, priors, (*candidates, *add), len(curves))
+    fitter = Fitter(curves, sigmas, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
+                    fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
+    for c, s in zip(curves, sigmas):
+        log.info("diagnosing %d points of %s (%s), noise %.3g mN, sphere R = %g mm, mesh %s; finite elements in the "
+                 "loop %s", c.n, c.source, ", ".join(segments), s, c.radius_mm, mesh, "allowed" if in_loop else "off")
     for i in range(len(add) + 1):
         fitter.fit(add[:i])
 
@@ -796,4 +884,26 @@ def diagnose(measurement, *, radius_mm: float | None = None, candidates=None, ad
                      first.not_detectable, verdict, confounded, suggestion, n_eff, notes, steps=steps,
                      alternatives=[one(f) for f in alternatives], n_given=len(add), fitter=fitter,
                      explained=is_explained, std_source=std_source, not_determined=not_determined,
-                     untried=untried, predictions=predictions, candidates=candidates)
+                     untried=untried, predictions=predictions, candidates=candidates, curves=list(curves),
+                     noises_mN=list(sigmas), noise_sources=list(sources))
+
+
+def check_known(fixed, priors, effects, n_curves: int) -> None:
+    """Every name held (``fixed``) or given a prior is a parameter of the base model or of one of the
+    ``effects`` (or a curve's own parameter, ``offset_mm[2]``): one line naming the vocabulary otherwise."""
+    from ..effects import BASE_PARAMETERS
+    from ..effects import numbered
+    from ..models.joint import split_name
+
+    names = {p.name for p in BASE_PARAMETERS}
+    for e in instances(tuple(dict.fromkeys(effects))):
+        for k in range(1, 4):  # up to a third occurrence of a repeatable effect (thickness3_mm)
+            names |= {numbered(p.name, k) if k > 1 else p.name for p in e.parameters}
+            if not e.repeatable:
+                break
+    for name in (*(fixed or {}), *(priors or {})):
+        base, curve = split_name(name)
+        if base not in names or (curve is not None and curve >= n_curves):
+            raise ValueError(f"{name}: not a parameter of any model this diagnosis fits (parameters: "
+                             f"{', '.join(sorted(names))}" + ("; a curve's own as offset_mm[2]" if n_curves > 1
+                                                               else "") + ")")

@@ -284,6 +284,11 @@ class Effect:
         The fitted force stays exactly proportional to E (lets the fit take dF/dE exactly).
     repeatable : bool
         May appear more than once in a model (e.g. two layers).
+    per_curve : bool
+        Its parameters belong to each measurement, not to the sample: when several curves of
+        one sample are fitted together (:class:`~skin_indent.models.JointModel`), every curve has
+        its own (the contact point of each curve, ``offset_mm[2]``), while the material's
+        parameters are shared.
     """
 
     name: str = ""
@@ -293,6 +298,7 @@ class Effect:
     needs_history: bool = False
     linear_in_E: bool = True
     repeatable: bool = False
+    per_curve: bool = False
 
     def __repr__(self) -> str:
         return f"<effect {self.name}: {self.description}>"
@@ -378,6 +384,21 @@ class Effect:
     def visible(self, data, noise_mN: float) -> str | None:
         """None if the effect can show in the prepared curve ``data``, else why not."""
         return None
+
+    def visible_in(self, curves, noises_mN) -> str | None:
+        """None if the effect can show in the curves of one sample fitted together, else why not.
+
+        Default: it shows in one of them (:meth:`visible`); an effect that only shows when
+        curves are compared (relaxation, at two loading speeds) says so by overriding this.
+
+        Parameters
+        ----------
+        curves : sequence of PreparedCurve
+        noises_mN : sequence of float
+            Each curve's noise level (mN).
+        """
+        whys = [self.visible(c, s) for c, s in zip(curves, noises_mN)]
+        return None if any(w is None for w in whys) else whys[0]
 
     def weigh(self, diagnosis, best) -> str:
         """For a :data:`WEIGHED` effect: what it could change in the curve, in words."""

@@ -21,6 +21,7 @@ class ForceBaseline(Effect):
                                   "force added to the model everywhere"),)
     stage = FORCE
     linear_in_E = False
+    per_curve = True  # a property of the recording, not of the sample
 
     def fit_bounds(self, data, reach_mm=math.inf):
         """At most a fifth of the peak force either way."""

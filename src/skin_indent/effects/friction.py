@@ -94,17 +94,21 @@ class Friction(Effect):
         """
         nu = float(best.parameters.get("nu", 0.45))
         d = diagnosis.data
-        h = d.depth_mm - best.parameters.get("offset_mm", 0.0)
-        touch = h > 0
-        hmax = float(h[touch].max())
-        try:
-            depths, ratio_curve = full_stick_ratio(round(nu, 3), float(f"{hmax:.3g}"), d.radius_mm,
-                                                   cache_dir=_cache_dir(diagnosis))
-        except Exception as exc:  # noqa: BLE001 - reported, not fatal
-            return f"the full-stick check did not run ({type(exc).__name__}: {exc})"
-        ratio = np.interp(h[touch], depths, ratio_curve)
-        delta = np.zeros_like(h)
-        delta[touch] = best.prediction_mN[touch] * (ratio - 1.0)
+        delta = np.zeros(d.n)
+        parts = diagnosis.parts(best) if hasattr(diagnosis, "parts") else [(0, d, None, slice(0, d.n),
+                                                                           best.parameters)]
+        for _, curve, _, sl, params in parts:  # each curve of a sample with its own sphere and contact point
+            h = curve.depth_mm - params.get("offset_mm", 0.0)
+            touch = h > 0
+            hmax = float(h[touch].max())
+            try:
+                depths, ratio_curve = full_stick_ratio(round(nu, 3), float(f"{hmax:.3g}"), curve.radius_mm,
+                                                       cache_dir=_cache_dir(diagnosis))
+            except Exception as exc:  # noqa: BLE001 - reported, not fatal
+                return f"the full-stick check did not run ({type(exc).__name__}: {exc})"
+            part = np.zeros_like(h)
+            part[touch] = best.prediction_mN[sl][touch] * (np.interp(h[touch], depths, ratio_curve) - 1.0)
+            delta[sl] = part
         J = best.bound_model.jacobian(d.depth_mm, best.x)[:, :2]  # what refitting E and nu cannot absorb
         s = diagnosis.sigma(best.prediction_mN)
         A, b = J / s[:, None], delta / s

@@ -21,6 +21,7 @@ class Offset(Effect):
                                   "recorded depth at which contact begins"),)
     stage = DEPTH
     linear_in_E = True
+    per_curve = True  # each curve of a sample has its own contact point
 
     def configure(self, spec: ForwardSpec, values: dict) -> None:
         spec.offset_mm = values["offset_mm"]

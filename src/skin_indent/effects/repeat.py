@@ -45,6 +45,7 @@ class Repeat(Effect):
         self.needs_history = inner.needs_history
         self.linear_in_E = inner.linear_in_E
         self.repeatable = True
+        self.per_curve = inner.per_curve
 
     def __repr__(self) -> str:
         return f"<effect {self.name} #{self.k}: {self.inner.description}>"

@@ -55,10 +55,27 @@ class Viscoelastic(Effect):
             return "the curve has no time column: rate effects cannot be told from elastic ones"
         if data.has("hold") or data.has("retract"):
             return None
-        load = data.kind == "approach"
-        v = np.diff(data.depth_mm[load]) / np.diff(data.time_s[load])
-        v = v[np.isfinite(v) & (v > 0)]
+        v = _loading_speeds(data)
         if v.size > 5 and np.percentile(v, 90) > 1.5 * np.percentile(v, 10):
             return None
         return ("a single constant-speed loading ramp: relaxation during it looks like an elastic nonlinearity; "
                 "a hold or an unloading segment would show it")
+
+    def visible_in(self, curves, noises_mN):
+        """Also visible in ramps of one sample at loading speeds that differ by more than 1.5 times
+        (medians): relaxation makes the faster ramp stiffer, an elastic law does not."""
+        why = super().visible_in(curves, noises_mN)
+        if why is None or any(c.time_s is None for c in curves):
+            return why
+        speeds = [float(np.median(v)) for v in map(_loading_speeds, curves) if v.size > 5]
+        if len(speeds) > 1 and max(speeds) > 1.5 * min(speeds):
+            return None
+        return ("constant-speed loading ramps at one speed: relaxation during them looks like an elastic "
+                "nonlinearity; a hold, an unloading segment or a ramp at another speed would show it")
+
+
+def _loading_speeds(data) -> np.ndarray:
+    """The positive loading speeds between consecutive approach points (mm/s)."""
+    load = data.kind == "approach"
+    v = np.diff(data.depth_mm[load]) / np.diff(data.time_s[load])
+    return v[np.isfinite(v) & (v > 0)]

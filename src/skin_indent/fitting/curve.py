@@ -23,16 +23,14 @@ from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
 from ..effects import CONTACT_POINT
 from ..inverse.residuals import analyse_residuals
 from ..measurement import PreparedCurve, prepare
-from ..measurement.scale import afm_scale, display_units
+from ..measurement.scale import Quantity, UnitText, afm_scale, display_units, shown_in
 from ..measurement.preparation import SKIN_RADIUS_MM
-from .scale_checks import check_points, scale_flags
+from .scale_checks import MISFIT_FLAG, check_points, scale_flags  # noqa: F401 - MISFIT_FLAG read here
 from ..models import ComposedModel, HertzModel
 from ..runtime.json_io import jsonable
 
 #: a misfit above this many times the independent noise: the model does not describe the curve
 MISFIT_LIMIT = 3.0
-#: a misfit above this many times the independent noise: the modulus itself is not to be trusted (a flag)
-MISFIT_FLAG = 10.0
 #: a misfit below this fraction of the independent noise: the residual's pattern is not judged
 MISFIT_FLOOR = 0.5
 
@@ -62,8 +60,10 @@ class CurveFit(IdentificationResult):
         Why the numbers may not be trusted (a parameter at a bound, misfit far above the
         noise); empty when there is no such reason.
     notes : list of str
-    surface : dict
-        Identity of the response surface used (``hash``, ``settings``).
+    surface : dict or list of dict
+        Identity of the response surface used (``hash``, ``settings``); of a chosen model's fit
+        (``model=...``), a list: every elastic force model its fits used (the model's and those of
+        the rungs below it, which give its starts; :func:`~skin_indent.runtime.provenance.surface_identity`).
     model : str
         The model fitted: ``neo-hooke`` plus ``+effect`` for each effect.
     priors : dict
@@ -87,7 +87,7 @@ class CurveFit(IdentificationResult):
     quality: dict = field(default_factory=dict)
     flags: tuple = ()
     notes: list = field(default_factory=list)
-    surface: dict = field(default_factory=dict)
+    surface: dict | list = field(default_factory=dict)
     model: str = "neo-hooke"
     priors: dict = field(default_factory=dict)
     error_model: dict = field(default_factory=dict)
@@ -138,7 +138,7 @@ class CurveFit(IdentificationResult):
             "quality": dict(self.quality),
             "flags": list(self.flags),
             "notes": list(self.notes),
-            "surface": dict(self.surface),
+            "surface": self.surface,
             "model": self.model,
             "priors": dict(self.priors),
             "error_model": dict(self.error_model),
@@ -152,7 +152,8 @@ class CurveFit(IdentificationResult):
         Lengths, forces and moduli are shown in ``units``
         (:class:`~skin_indent.measurement.scale.DisplayUnits`), default the units of the curve's
         scale (:func:`~skin_indent.measurement.scale.display_units`: um, nN and Pa for an AFM-scale
-        sphere, mm, mN and kPa for skin); :meth:`to_dict` keeps the package units.
+        sphere, mm, mN and kPa for skin), notes and flags too (:func:`~skin_indent.measurement.scale.shown_in`);
+        :meth:`to_dict` keeps the package units.
         """
         u = units or display_units(self.radius_mm)
         L, F, M = u.length, u.force, u.modulus
@@ -173,7 +174,9 @@ class CurveFit(IdentificationResult):
                     f"{p.baseline_fitted.slope_std_mN_per_mm * kT:.2g} {F}/{L}, not significant)")
             lines.append(f"baseline: subtracted F = offset + tilt * depth: offset {b.offset_mN * kF:.4g} {F}, {tilt} "
                          f"(robust fit of {b.n_points} pre-contact points, noise {b.noise_mN * kF:.3g} {F})")
-        if p.contact_mode == "fit":
+        if p.contact_mode == "fit" and self.contact_point_std_mm is None:  # a chosen model's, held (--fix offset_mm)
+            lines.append(f"contact point: {self.contact_point_mm * kL:.6g} {L} (held)")
+        elif p.contact_mode == "fit":
             lines.append(f"contact point: {self.contact_point_mm * kL:.6g} +/- {self.contact_point_std_mm * kL:.2g} {L} "
                          f"(fitted jointly; first guess {p.contact_guess_mm * kL:.6g} {L} from the deviation from "
                          "the baseline)")
@@ -202,8 +205,8 @@ class CurveFit(IdentificationResult):
             lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN * kF:.3g} {F} = {q['misfit']:.2g} x the noise "
                          f"{q['noise_mN'] * kF:.3g} {F}, {q['noise_source']}; residual "
                          f"{'white' if q['white'] else 'structured'})")
-        lines.extend(f"flag: {f}" for f in self.flags)
-        lines.extend(f"note: {n}" for n in self.notes)
+        lines.extend(f"flag: {shown_in(f, u)}" for f in self.flags)
+        lines.extend(f"note: {shown_in(n, u)}" for n in self.notes)
         return "\n".join(lines)
 
     __str__ = report
@@ -274,9 +277,11 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
 
     Parameters
     ----------
-    data : Measurement or PreparedCurve
+    data : Measurement or PreparedCurve, or a list of them
         The whole curve as recorded (approach, hold, retract; any baseline; contact
         anywhere), or a curve already prepared with :func:`skin_indent.measurement.prepare`.
+        A list is several curves of one sample fitted together (the model path, default
+        ``model="neo-hooke"``): a :class:`~skin_indent.fitting.sample_fit.SampleFit`.
     surface : ResponseSurface, optional
         A neo-Hookean surface (any radius: rescaled by similarity); default found in the
         cache or built (``context``, ``mesh``).
@@ -338,6 +343,9 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     free = tuple(free or ())
     if set(free) - {"nu"}:
         raise ValueError(f"free takes nu (held at 0.5 by default at AFM scale), got {', '.join(free)}")
+    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
+    if several and model is None:
+        model = "neo-hooke"  # several curves of one sample: the model path fits them together
     if model is not None or priors:
         if free:
             raise ValueError("a fit of a chosen model fits nu unless it is held (--fix nu=...): free is not taken")
@@ -463,7 +471,8 @@ def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm,
              "contact_point_mm": hz.parameters.get("offset_mm", c0), "rms_mN": hz.rms_mN}
     notes = list(prepared.notes)
     if "nu" in fixed:
-        notes.append(f"nu fixed at {fixed['nu']:g}; E = {result.parameters['E_kPa']:.5g} kPa")
+        notes.append(UnitText("nu fixed at {nu:g}; E = {E:.5g}", nu=fixed["nu"],
+                              E=Quantity(result.parameters["E_kPa"], "kPa")))
     flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
              for name in result.info.get("active_bounds", ())]
     q = quality(prepared, result.residuals_mN, result.n_free, noise=independent)
@@ -503,8 +512,10 @@ def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> C
     scale = E / near.parameters["E_kPa"]
     parameters = {**near.parameters, "E_kPa": E, "nu": 0.5}
     std = {k: (v * scale if k == "E_kPa" else v) for k, v in near.std.items()}
-    note = (f"nu = 0.5: the incompressible limit, E* extrapolated from nu = {lo:g} ({e_lo:.5g} kPa) and {hi:g} "
-            f"({e_hi:.5g} kPa) to {e_star:.5g} kPa ({100 * (e_star / e_hi - 1):+.2g}% from nu = {hi:g})")
+    note = UnitText("nu = 0.5: the incompressible limit, E* extrapolated from nu = {lo:g} ({e_lo:.5g}) and {hi:g} "
+                    "({e_hi:.5g}) to {e_star:.5g} ({moved:+.2g}% from nu = {hi:g})", lo=lo, hi=hi,
+                    e_lo=Quantity(e_lo, "kPa"), e_hi=Quantity(e_hi, "kPa"), e_star=Quantity(e_star, "kPa"),
+                    moved=100 * (e_star / e_hi - 1))
     notes = [n for n in near.notes if not n.startswith("nu fixed")] + [note]
     return with_scale_flags(dataclasses.replace(near, parameters=parameters, std=std, e_star_kPa=e_star,
                                                 e_star_std_kPa=near.e_star_std_kPa * e_star / e_hi, notes=notes))

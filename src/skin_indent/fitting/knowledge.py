@@ -16,6 +16,9 @@ import numpy as np
 DATA_DETERMINED, PRIOR_DETERMINED = 0.5, 0.9
 #: a prior and the data disagree when the data alone put the parameter this many combined sd away
 TENSION = 3.0
+#: what ``determined_by`` of :func:`prior_summary` means, in words
+DETERMINED_BY = {"data": "determined by the data", "prior": "determined by the prior",
+                 "both": "data and prior both count", "unknown": "not determined"}
 
 
 def prior_summary(posterior: float, posterior_sd: float, mean: float, sd: float) -> dict:

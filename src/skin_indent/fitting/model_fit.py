@@ -20,14 +20,18 @@ import numpy as np
 
 from ..effects import CONTACT_POINT, WEIGHED, effect, instances
 from ..inverse import IdentificationResult
-from ..measurement import SEGMENTS, PreparedCurve, prepare
-from .curve import MISFIT_FLAG, CurveFit, quality, with_scale_flags
+from ..measurement import SEGMENTS, CurveSet, PreparedCurve, prepare
+from ..measurement.scale import Name, Quantity, UnitText
+from .curve import CurveFit, quality, with_scale_flags
 from .identification import hertz_modulus, run_method
+from .knowledge import DETERMINED_BY
 from .multistart import Fitter, evidence
-from .scale_checks import check_points
+from .sample_fit import sample_fit_of
+from .scale_checks import MISFIT_FLAG, check_points
 from ..models import HertzModel
 from ..models.composed import at_physical_limit
 from ..runtime.context import context_of
+from ..runtime.provenance import surface_identity
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
 MAX_POINTS = 400
@@ -73,6 +77,37 @@ def prepare_curve(data, *, radius_mm: float | None = None, segments=SEGMENTS) ->
     return prepare(data, segments=tuple(segments), radius_mm=radius_mm, max_points=MAX_POINTS)
 
 
+def is_several(data) -> bool:
+    """``data`` holds several curves of one sample (a list or tuple of curves, or a CurveSet)."""
+    return isinstance(data, (list, tuple, CurveSet))
+
+
+def per_curve(value, n: int, what: str) -> list:
+    """``value`` for each of ``n`` curves: one value for all, or a sequence of ``n`` (one line otherwise)."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        if len(value) != n:
+            raise ValueError(f"{what}: {len(value)} values for {n} curves (give one, or one per curve)")
+        return list(value)
+    return [value] * n
+
+
+def prepare_sample(data, *, radius_mm=None, segments=SEGMENTS) -> list[PreparedCurve]:
+    """Several recorded curves of one sample prepared as :func:`prepare_curve` prepares one, each with
+    its own sphere radius (``radius_mm``: one for all, one per curve, or None: each curve's own)."""
+    curves = list(data.curves if isinstance(data, CurveSet) else data)
+    if len(curves) < 2:
+        raise ValueError("several curves of one sample: give at least two")
+    radii = per_curve(radius_mm, len(curves), "radius_mm")
+    return [prepare_curve(c, radius_mm=r, segments=segments) for c, r in zip(curves, radii)]
+
+
+def sample_noise(curves, noise_mN=None) -> tuple[list, list]:
+    """Each curve's noise level (mN) and where it comes from (:func:`curve_noise`); ``noise_mN`` one for
+    all curves, one per curve, or None (each estimated from its own data)."""
+    out = [curve_noise(c, s) for c, s in zip(curves, per_curve(noise_mN, len(curves), "noise_mN"))]
+    return [s for s, _ in out], [w for _, w in out]
+
+
 def curve_noise(data: PreparedCurve, noise_mN: float | None = None) -> tuple[float, str]:
     """The noise level of a prepared curve (mN) and where it comes from: given (per raw sample,
     divided by sqrt of the bin size), or estimated from the data (local cubic prediction)."""
@@ -103,8 +138,12 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
 
     Parameters
     ----------
-    data : Measurement or PreparedCurve
-        The curve as recorded (every segment: loading, hold, unloading), or prepared.
+    data : Measurement or PreparedCurve, or a list of them
+        The curve as recorded (every segment: loading, hold, unloading), or prepared. A list
+        is several curves of ONE sample (two spheres, two speeds...), fitted together: the
+        material's and effects' parameters shared, each curve with its own sphere radius,
+        contact point (``offset_mm[2]``...) and noise, each residual weighed by its own
+        curve's noise (:class:`~skin_indent.models.JointModel`).
     model : str or sequence of str
         ``"neo-hooke"`` plus ``+effect`` for each effect (``"neo-hooke+layer+layer"``: two
         bonded layers over a half-space or a rigid base), or the effects' names.
@@ -117,10 +156,11 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
         thickness from ultrasound, ``{"thickness_mm": (1.2, 0.1)}``), each one more residual
         of the least squares. The result's ``priors`` says, per parameter, how much the data
         narrowed it and whether data and prior agree.
-    noise_mN : float, optional
-        Noise standard deviation of a raw sample (mN); default estimated from the data.
-    radius_mm : float, optional
-        Sphere radius (mm); default the measurement's, else 6.22 mm.
+    noise_mN : float or list of float, optional
+        Noise standard deviation of a raw sample (mN; one per curve for several); default
+        estimated from the data.
+    radius_mm : float or list of float, optional
+        Sphere radius (mm; one per curve for several); default the measurement's, else 6.22 mm.
     segments : sequence of str
         Kinds of motion fitted (default all).
     in_loop : bool
@@ -131,8 +171,8 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
 
     Returns
     -------
-    CurveFit
-        ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
+    CurveFit or SampleFit
+        A :class:`~skin_indent.fitting.sample_fit.SampleFit` for several curves. ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
         model error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
         ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.multistart.evidence`);
         ``flags`` with the scale checks' (:func:`~skin_indent.fitting.scale_checks.scale_flags`).
@@ -152,20 +192,38 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     """
     effects = parse_model(model)
     context = context_of(context)
-    prepared = prepare_curve(data, radius_mm=radius_mm, segments=segments)
-    sigma, source = curve_noise(prepared, noise_mN)
-    fitter = Fitter(prepared, sigma, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
+    if is_several(data):
+        curves = prepare_sample(data, radius_mm=radius_mm, segments=segments)
+        sigmas, sources = sample_noise(curves, noise_mN)
+    else:
+        curves = [prepare_curve(data, radius_mm=radius_mm, segments=segments)]
+        sigma, source = curve_noise(curves[0], noise_mN)
+        sigmas, sources = [sigma], [source]
+    fitter = Fitter(curves, sigmas, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
     target = fitter.model(effects)
     fitter.check_names(target)
-    check_points(prepared, len(target.parameter_names) - len(fitter.held(target)))
+    check_points(fitter.data if len(curves) == 1 else _Points(fitter.data),
+                 len(target.parameter_names) - len(fitter.held(target)))
     for i in range(len(effects)):  # the rungs below, as a diagnosis climbs to it: the same warm starts
         try:
             fitter.fit(effects[:i])
         except ValueError:
             pass  # a simpler model that cannot be fitted: the model is started from its own values
     rung = fitter.fit(effects)
-    return curve_fit_of(rung, fitter, noise_source=source)
+    if len(curves) > 1:
+        return sample_fit_of(rung, fitter, noise_sources=sources)
+    return curve_fit_of(rung, fitter, noise_source=sources[0])
+
+
+class _Points:
+    """The points in contact of several curves, as :func:`~.scale_checks.check_points` counts them."""
+
+    def __init__(self, curves):
+        self.curves = curves
+        self.source = curves.source
+        self.contact_guess_mm = -np.inf
+        self.depth_mm = np.concatenate([c.depth_mm[c.depth_mm > c.contact_guess_mm] for c in curves])
 
 
 def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
@@ -198,23 +256,23 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
             flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
                          f"({s['tension_sd']:.1f} combined sd apart)")
     notes = list(prepared.notes)
-    notes += [f"{name} held at {v:g}" for name, v in fitter.fixed.items() if name in p]
+    notes += [UnitText("{name} held at {value:g}", name=Name(name), value=Quantity(v, name))
+              for name, v in fitter.fixed.items() if name in p]
     for name, s in rung.priors.items():
-        notes.append(f"{name}: prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g}, posterior {s['posterior']:.4g} "
-                     f"+- {s['posterior_sd']:.2g} (sd x {s['narrowed']:.2f}: {_BY[s['determined_by']]})")
+        notes.append(UnitText("{name}: prior {mean:.4g} +- {sd:.2g}, posterior {post:.4g} +- {post_sd:.2g} (sd x "
+                              "{narrowed:.2f}: {by})", name=Name(name), mean=Quantity(s["prior_mean"], name),
+                              sd=Quantity(s["prior_sd"], name), post=Quantity(s["posterior"], name),
+                              post_sd=Quantity(s["posterior_sd"], name), narrowed=s["narrowed"],
+                              by=DETERMINED_BY[s["determined_by"]]))
     aic, bic = evidence(rung.chi2_weighted, k, n)
     base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
     base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
     result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                       e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
-                      flags=tuple(flags), notes=notes, surface={}, model=rung.model, priors=dict(rung.priors),
-                      error_model=fitter.error_model())
+                      flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
+                      priors=dict(rung.priors), error_model=fitter.error_model())
     return with_scale_flags(result, at_bounds=tuple(rung.at_bounds))
-
-
-_BY = {"data": "determined by the data", "prior": "determined by the prior", "both": "data and prior both count",
-       "unknown": "not determined"}
 
 
 def _physical(rung, name: str) -> bool:

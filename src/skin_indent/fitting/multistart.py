@@ -16,7 +16,9 @@ from ..inverse import IdentificationResult
 from ..inverse import fit_least_squares
 from ..inverse.residuals import analyse_residuals, describe_structure
 from ..inverse.result import jacobian_covariance
-from ..models import ComposedModel
+from ..measurement import CurveSet
+from ..models import ComposedModel, JointModel
+from ..models.joint import curve_name, split_name
 from ..runtime.json_io import jsonable
 from .identification import hertz_modulus
 from .knowledge import held_coordinates, prior_rows, prior_summary
@@ -79,6 +81,10 @@ class Rung(IdentificationResult):
     priors : dict
         Per parameter given a prior, :func:`prior_summary`: the prior, the posterior, how much
         the data narrowed it and whether data and prior agree.
+    curve_rms_mN : tuple of float
+        The RMS residual of each curve (mN), in input order (one curve: ``(rms_mN,)``).
+    curve_white : tuple of bool
+        Whether each curve's residual passes the whiteness tests on its own.
     """
 
     BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
@@ -97,6 +103,8 @@ class Rung(IdentificationResult):
     forward_runs: int = 0
     at_bounds: tuple = ()
     priors: dict = field(default_factory=dict)
+    curve_rms_mN: tuple = ()
+    curve_white: tuple = ()
 
     @property
     def residual_mN(self) -> np.ndarray:
@@ -108,9 +116,17 @@ class Rung(IdentificationResult):
 
     def summary(self) -> dict:
         """JSON-safe summary of the rung."""
-        return jsonable({"model": self.model, "parameters": self.parameters, "std": self.std, "rms_mN": self.rms_mN,
-                         "bic": self.bic, "white": self.white, "n_parameters": self.n_parameters,
-                         "structure": self.structure, "priors": self.priors})
+        return jsonable({"model": self.model, "parameters": self.parameters, "std": self.std,
+                         "rms_mN": self.rms_of_curves, "bic": self.bic, "white": self.white,
+                         "n_parameters": self.n_parameters, "structure": self.structure, "priors": self.priors})
+
+    @property
+    def rms_of_curves(self):
+        """The RMS residual (mN) as outputs report it: a number for one curve, a list in input order for
+        several curves of one sample."""
+        if len(self.curve_rms_mN) > 1:
+            return [float(v) for v in self.curve_rms_mN]
+        return self.rms_mN
 
 
 def _blended(f0: np.ndarray, f1: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
@@ -138,18 +154,37 @@ class Fitter:
 
     Parameters
     ----------
-    data : PreparedCurve
-    noise_mN : float
-        Noise level (mN) of the prepared points.
+    data : PreparedCurve or sequence of PreparedCurve
+        One curve, or several curves of one sample (two spheres, two speeds...), fitted
+        together: the material's parameters shared, each curve with its own contact point
+        (:class:`~skin_indent.models.JointModel`), sphere radius and noise.
+    noise_mN : float or sequence of float
+        Noise level (mN) of the prepared points (one per curve).
     noise_known : bool
         Given by the user (else estimated: its uncertainty enters the chi-square test).
     context : Context
     mesh : str
+
+    Attributes
+    ----------
+    curves : list of PreparedCurve
+        In input order; ``data`` is the curve itself, or a
+        :class:`~skin_indent.measurement.CurveSet` of them (the points concatenated).
+    noises_mN : list of float
+        Each curve's noise level; ``noise_mN`` is the first curve's, the scale of the fits'
+        weights (each point is weighed by its own curve's noise).
     """
 
-    def __init__(self, data, noise_mN: float, *, noise_known: bool, context, mesh: str, in_loop: bool = True,
+    def __init__(self, data, noise_mN, *, noise_known: bool, context, mesh: str, in_loop: bool = True,
                  fixed: dict | None = None, priors: dict | None = None):
-        self.data = data
+        curves = list(data.curves) if isinstance(data, CurveSet) else (
+            list(data) if isinstance(data, (list, tuple)) else [data])
+        noises = [float(v) for v in np.broadcast_to(np.asarray(noise_mN, dtype=float), (len(curves),))]
+        self.curves, self.noises_mN = curves, noises
+        self.data = curves[0] if len(curves) == 1 else CurveSet(tuple(curves))
+        #: each point's noise (mN): its curve's
+        self.noise_points = np.concatenate([np.full(c.n, s) for c, s in zip(curves, noises)])
+        data, noise_mN = curves[0], noises[0]
         #: what the user knows, by the names results report (``thickness_mm``, ``ratio``, ``E_kPa``...):
         #: values held fixed, and Gaussian priors ``{name: (mean, sd)}``; each applies to the models
         #: that have the parameter
@@ -164,29 +199,55 @@ class Fitter:
         self.radius_mm = data.radius_mm
         self.noise_mN = noise_mN
         # an estimated noise level is uncertain: ~12% for 100 points (estimate_noise), i.e. ~0.35 n dof
-        self.noise_dof = None if noise_known else 0.35 * data.n
+        self.noise_dof = None if noise_known else 0.35 * self.data.n
         self.context = context
         self.mesh = mesh
         #: fit combinations that no surface covers with the finite-element model in the loop
         self.in_loop = in_loop
-        h, F = data.loading()
-        if h.size < 3:
-            raise ValueError(f"{data.source}: fewer than 3 loading points in contact to diagnose")
+        self.e_stars = []
+        for c in curves:
+            h, F = c.loading()
+            if h.size < 3:
+                raise ValueError(f"{c.source}: fewer than 3 loading points in contact to diagnose")
+            self.e_stars.append(hertz_modulus(h, np.maximum(F, 0.0), c.radius_mm))
         self.max_depth = data.max_indentation_mm
-        self.e_star = hertz_modulus(h, np.maximum(F, 0.0), self.radius_mm)
+        self.e_star = self.e_stars[0]
         self._cores = {}
         self.fits: dict[tuple, Rung] = {}
         #: the contact point is a parameter of every model of a curve recorded from before contact
-        self.implicit = (CONTACT_POINT.name,) if data.contact_mode == "fit" else ()
+        self.implicits = [(CONTACT_POINT.name,) if c.contact_mode == "fit" else () for c in curves]
+        self.implicit = self.implicits[0]
+
+    @property
+    def joint(self) -> bool:
+        """Several curves of one sample are fitted together."""
+        return len(self.curves) > 1
 
     def sigma(self, force) -> np.ndarray:
-        """The error model: sigma_i (mN) of each point, noise and model error in quadrature."""
-        return np.sqrt(self.noise_mN**2 + (MODEL_ERROR * np.abs(force)) ** 2)
+        """The error model: sigma_i (mN) of each point, noise (its curve's) and model error in quadrature."""
+        noise = self.noise_points if self.joint else self.noise_mN
+        return np.sqrt(noise**2 + (MODEL_ERROR * np.abs(force)) ** 2)
+
+    def visible(self, e) -> str | None:
+        """None if the effect ``e`` can show in the data (a curve, or the curves of a sample
+        together: :meth:`~skin_indent.effects.Effect.visible_in`), else why not."""
+        if not self.joint:
+            return e.visible(self.data, self.noise_mN)
+        return e.visible_in(self.curves, self.noises_mN)
+
+    def parts(self, rung):
+        """Per curve of ``rung``'s fit: ``(k, curve, noise_mN, points slice, model parameters under
+        the curve's own names)`` (one curve: the rung's own parameters)."""
+        if not self.joint:
+            yield 0, self.data, self.noise_mN, slice(0, self.data.n), dict(rung.parameters)
+            return
+        for k, (c, sl) in enumerate(zip(self.curves, self.data.slices)):
+            yield k, c, self.noises_mN[k], sl, rung.bound_model.curve_parameters(rung.parameters, k)
 
     def error_model(self) -> dict:
         """The error model in words and numbers (how the chi-square and BIC of every fit of this curve weigh it)."""
-        return {"noise_mN": self.noise_mN, "model_error": MODEL_ERROR,
-                "sigma": "sqrt(noise^2 + (model_error * F)^2)"}
+        return {"noise_mN": self.noise_mN if not self.joint else list(self.noises_mN), "model_error": MODEL_ERROR,
+                "sigma": "sqrt(noise^2 + (model_error * F)^2)" + (", noise of each point's curve" if self.joint else "")}
 
     def held(self, model) -> dict:
         """The fixed values of the parameters ``model`` has, as its fit coordinates ``{name: value}``
@@ -212,8 +273,9 @@ class Fitter:
             raise ValueError(f"{', '.join(unknown)}: not a parameter of {model.name} (its parameters: "
                              f"{', '.join(dict.fromkeys((*model.model_parameters(model.bounds[0]), )))})")
 
-    def core(self, effects):
-        """The elastic force model of these effects (cached per set of elastic effects).
+    def core(self, effects, k: int = 0):
+        """The elastic force model of these effects for curve ``k`` (cached per set of elastic effects
+        and curve).
 
         A response surface for none or one elastic effect; the finite-element model in
         the loop for more (two layers, layer and stiffening...).
@@ -222,23 +284,36 @@ class Fitter:
         if len(key) > 1 and not self.in_loop:
             raise ValueError(f"no surface combines {' and '.join(key)}: it is fitted with the finite-element model "
                              "in the loop, switched off here")
-        if key not in self._cores:
-            self._cores[key] = elastic_core(key, radius_mm=self.radius_mm, max_depth_mm=self.max_depth,
-                                            e_star_kPa=self.e_star, context=self.context, mesh=self.mesh)
-        return self._cores[key]
+        if (key, k) not in self._cores:
+            c = self.curves[k]
+            self._cores[key, k] = elastic_core(key, radius_mm=c.radius_mm, max_depth_mm=c.max_indentation_mm,
+                                               e_star_kPa=self.e_stars[k], context=self.context, mesh=self.mesh)
+        return self._cores[key, k]
 
-    def full(self, effects) -> tuple:
-        """The effects of the fitted model: the implicit contact point first (once), then ``effects``."""
+    @property
+    def cores(self) -> tuple:
+        """The elastic force models the fits have used so far (response surfaces, effect surfaces, finite
+        elements in the loop; one per curve of a sample), in the order they were first needed: what a
+        provenance records."""
+        return tuple(self._cores.values())
+
+    def full(self, effects, k: int = 0) -> tuple:
+        """The effects of curve ``k``'s fitted model: its implicit contact point first (once), then ``effects``."""
         names = tuple(e.name for e in instances(effects))
-        return tuple(e for e in self.implicit if e not in names) + names
+        return tuple(e for e in self.implicits[k] if e not in names) + names
 
     def model(self, effects: tuple):
+        """The fitted model of these effects: bound to the curve, or a
+        :class:`~skin_indent.models.JointModel` of every curve of the sample."""
         objs = instances(effects)
         weighed = [e.name for e in objs if e.stage == WEIGHED]
         if weighed:
             raise ValueError(f"{', '.join(weighed)} is weighed, not fitted: no fitted model has it yet")
-        full = self.full(effects)
-        return ComposedModel(self.core(full), full, self.data)
+        parts = []
+        for k, c in enumerate(self.curves):
+            full = self.full(effects, k)
+            parts.append(ComposedModel(self.core(full, k), full, c))
+        return parts[0] if len(parts) == 1 else JointModel(parts)
 
     def warm(self, effects: tuple):
         """The fitted rung of the largest set of effects contained in ``effects`` (None: none fitted)."""
@@ -305,18 +380,20 @@ class Fitter:
         if prev is not None:
             base.update({k: v for k, v in prev.fit_parameters.items() if k in names})
         options, off = {}, {}
-        for e in model.effects:
-            bounds = {k: (lo[names.index(k)], hi[names.index(k)]) for k in e.fit_names if k in names}
-            options.update(e.starts(self.data, bounds))
+        for e, data, named in self._effect_views(model):
+            fit_names = [named(n) for n in e.fit_names]
+            bounds = {n: (lo[names.index(m)], hi[names.index(m)]) for n, m in zip(e.fit_names, fit_names)
+                      if m in names}
+            options.update({named(n): v for n, v in e.starts(data, bounds).items()})
             values = {p.name: p.off if p.off is not None else p.neutral for p in e.parameters}
-            if all(v is not None for v in values.values()) and set(e.fit_names) <= set(names):
+            if all(v is not None for v in values.values()) and set(fit_names) <= set(names):
                 try:
-                    off.update(e.to_fit(values, base["E_kPa"]))
+                    off.update({named(n): v for n, v in e.to_fit(values, base["E_kPa"]).items()})
                 except (ValueError, ZeroDivisionError):
                     pass
         varied = [k for k in names if k in options and k not in base]
         out = []
-        if hasattr(model.core, "prefetch"):
+        if in_loop(model):
             # the finite-element model in the loop: the simpler model's elastic values may be far
             # from the combination's (one layer standing in for two), so the elastic parameters
             # fitted before vary too; the starts are screened (one cheap run each) before a fit
@@ -331,9 +408,10 @@ class Fitter:
             nested = [base[k] if k in base else off[k] for k in names]
             out.append(np.clip(np.array(nested, dtype=float), lo, hi))
         candidates = self._inserted(model, prev, base)
-        for combo in itertools.islice(itertools.product(*(options[k] for k in varied)), 20 * MAX_STARTS):
-            x = [combo[varied.index(k)] if k in varied else base.get(k, 0.5 * (lo[i] + hi[i]))
-                 for i, k in enumerate(names)]
+        axes = _axes(varied, options)
+        for combo in itertools.islice(itertools.product(*(values for _, values in axes)), 20 * MAX_STARTS):
+            chosen = {k: v for (keys, _), values in zip(axes, combo) for k, v in zip(keys, values)}
+            x = [chosen[k] if k in chosen else base.get(k, 0.5 * (lo[i] + hi[i])) for i, k in enumerate(names)]
             candidates.append(np.clip(np.array(x, dtype=float), lo, hi))
         body = getattr(model.core, "body", None)
         if body is None:
@@ -351,6 +429,23 @@ class Fitter:
                 seen.add(b)
                 out.append(x)
         return out
+
+    def _effect_views(self, model):
+        """``(effect, the curve it starts from, its fit names in the model)`` of every effect of
+        ``model``: the shared effects once, from the first curve; an effect of each curve
+        (:attr:`~skin_indent.effects.Effect.per_curve`, the contact point) once per curve that has it,
+        from that curve, its names numbered (``offset_mm[2]``)."""
+        if not isinstance(model, JointModel):
+            for e in model.effects:
+                yield e, self.data, (lambda n: n)
+            return
+        for e in model.parts[0].effects:
+            if not e.per_curve:
+                yield e, self.curves[0], (lambda n: n)
+        for k, part in enumerate(model.parts):
+            for e in part.effects:
+                if e.per_curve:
+                    yield e, self.curves[k], (lambda n, k=k: curve_name(n, k))
 
     def _inserted(self, model, prev, base: dict) -> list[np.ndarray]:
         """Starts with one more occurrence of a repeatable effect than the simpler model
@@ -376,7 +471,7 @@ class Fitter:
                 at = {n: names.index(n) for n in inner.fit_names}
             except (KeyError, ValueError):
                 continue
-            options = inner.starts(self.data, {n: (lo[i], hi[i]) for n, i in at.items()})
+            options = inner.starts(self.curves[0], {n: (lo[i], hi[i]) for n, i in at.items()})
             for position in range(e.k):
                 for combo in itertools.product(*(options[n] for n in inner.fit_names)):
                     seq = inner.insert(fitted, position, dict(zip(inner.fit_names, combo)))
@@ -404,14 +499,13 @@ class Fitter:
             return starts
         d = self.data
         held = self.held(model)
-        n_core = len(model.core.parameter_names)
         costs, forces = [], []
         lo, hi = model.bounds
         w = 1.0 / self.sigma(d.force_mN) ** 2
         starts = [np.array(x, dtype=float) for x in starts]
-        with model.core.screening():  # cheaper runs that only rank the starts
+        with model.screening():  # cheaper runs that only rank the starts
             try:
-                model.core.prefetch([x[:n_core] for x in starts])
+                model.prefetch(starts)
             except ValueError:  # a start whose run does not converge ranks last (below), the others stand
                 pass
             for i, x in enumerate(starts):
@@ -479,16 +573,17 @@ class Fitter:
                 done[key] = self.fits[key]
                 continue
             try:
-                core = self.model(key).core  # the cores are made here, in this thread
+                cores = self.model(key).cores  # the cores are made here, in this thread
             except ValueError as err:
                 done[key] = err
                 continue
-            if hasattr(core, "in_workers"):
-                groups.setdefault(id(core), []).append(key)
+            looped = tuple(id(c) for c in cores if hasattr(c, "in_workers"))
+            if looped:
+                groups.setdefault(looped, []).append(key)
             else:
                 done.update(attempt([key]))
         if len(groups) > 1:
-            cores = [self.model(group[0]).core for group in groups.values()]
+            cores = [c for group in groups.values() for c in self.model(group[0]).cores if hasattr(c, "in_workers")]
             with contextlib.ExitStack() as stack:
                 for core in cores:
                     stack.enter_context(core.in_workers())
@@ -518,12 +613,15 @@ class Fitter:
         starts = self.starts(model, key)
         options = {}
         lo, hi = model.bounds
-        runs0 = getattr(model.core, "runs", 0)
-        in_loop = hasattr(model.core, "prefetch")
+        runs0 = forward_runs(model)
+        looped = in_loop(model)
+        if self.joint:  # each point weighed by its own curve's noise
+            known["sigma_mN"] = self.noise_points
         # measured (module docstring, 2 cores): 50-100 runs and 1-3 minutes per fit in the loop
-        log.info("fitting %s %s", model.name, "with finite elements in the loop (typically 50-100 runs, 1-3 min on "
-                 "2 cores)" if in_loop else "on response surfaces")
-        if in_loop:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
+        log.info("fitting %s %s%s", model.name, "with finite elements in the loop (typically 50-100 runs, 1-3 min on "
+                 "2 cores)" if looped else "on response surfaces",
+                 f" to {len(self.curves)} curves of one sample" if self.joint else "")
+        if looped:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
             # not from the nested start nor from starts equivalent to it: there the combination is
             # the simpler model exactly (a second layer of the first one's modulus, or under a rigid
             # base), a stationary point the fit does not leave (measured: it stops after 3
@@ -539,10 +637,10 @@ class Fitter:
                 continue
             if best is None or _cost(res) < _cost(best):
                 best, first = res, i
-            if in_loop:
+            if looped:
                 break
         noise = float(np.sqrt(np.mean(self.sigma(d.force_mN) ** 2)))  # with the model error
-        if in_loop and best is not None and best.rms_mN > FE_RETRY * noise:
+        if looped and best is not None and best.rms_mN > FE_RETRY * noise:
             # the best-ranked start led to a fit that does not reach the noise: a short fit from
             # each of the other screened starts, and the best of those, if better, to the end
             probes = []
@@ -562,7 +660,7 @@ class Fitter:
                     except ValueError:
                         pass
                 best = lead if _cost(lead) < _cost(best) else best
-        if in_loop and nested is not None and (best is None or _cost(best) > _cost(self.warm(key))):
+        if looped and nested is not None and (best is None or _cost(best) > _cost(self.warm(key))):
             # the combination holds the simpler model: a fit that ends above it got lost on the
             # way (measured: two layers from the best screened start 0.0124 mN, one layer 0.0110);
             # the simpler model's optimum stands, the added effect doing nothing
@@ -574,9 +672,9 @@ class Fitter:
                 pass
         if best is None:
             raise ValueError(f"the model {model.name} could not be fitted")
-        forward_runs = getattr(model.core, "runs", 0) - runs0
-        if in_loop:
-            log.info("fitted %s: %d finite-element runs", model.name, forward_runs)
+        runs = forward_runs(model) - runs0
+        if looped:
+            log.info("fitted %s: %d finite-element runs", model.name, runs)
         x = np.array([best.parameters[n] for n in model.parameter_names])
         pred = d.force_mN - best.residuals_mN
         cov = np.full((x.size, x.size), np.nan)
@@ -591,7 +689,8 @@ class Fitter:
             # covariance of the others is that of the fit with it fixed
 
             keep = [model.parameter_names.index(n) for n in best.free_names if n not in active]
-            rows = model.jacobian(d.depth_mm, x)[:, keep] / self.noise_mN
+            noise = self.noise_points[:, None] if self.joint else self.noise_mN
+            rows = model.jacobian(d.depth_mm, x)[:, keep] / noise
             terms = known["priors"] or ()
             if terms:  # the priors' rows, whitened as the data's: the posterior, as the fit's own covariance
                 rows = np.vstack([rows, prior_rows(terms, x, keep, lo, hi)])
@@ -607,15 +706,79 @@ class Fitter:
         r = best.residuals_mN
         s = self.sigma(pred)
         analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
+        curve_rms, curve_white = self._per_curve(r, s, best.n_free)
         base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
         base.update(parameters=params, std=std, bic=math.nan)
         rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
-                    structure=structure_sentence(d, r, s), bound_model=model, x=x, forward_runs=forward_runs,
-                    at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge)
+                    structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
+                    at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
+                    curve_white=curve_white)
         self.fits[key] = rung
         return rung
+
+    def _per_curve(self, residual, sigma, n_free: int) -> tuple[tuple, tuple]:
+        """Each curve's RMS residual (mN) and whether its residual alone is white (one curve: the fit's)."""
+        if not self.joint:
+            rms = float(np.sqrt(np.mean(residual**2)))
+            return (rms,), ()
+        rms, white = [], []
+        for (c, sl), noise in zip(zip(self.curves, self.data.slices), self.noises_mN):
+            r = residual[sl]
+            rms.append(float(np.sqrt(np.mean(r**2))))
+            try:
+                a = analyse_residuals(r * (noise / sigma[sl]), noise, 0, noise_dof=None if self.noise_dof is None
+                                      else 0.35 * c.n)
+                white.append(bool(a.white))
+            except ValueError:  # too few points for the tests
+                white.append(True)
+        return tuple(rms), tuple(white)
+
+    def structure(self, residual, sigma) -> str:
+        """Where the residual departs from the noise, in words (:func:`structure_sentence`), per curve
+        of a sample (``"curve 2 (file): ..."``)."""
+        if not self.joint:
+            return structure_sentence(self.data, residual, sigma)
+        parts = []
+        for k, (c, sl) in enumerate(zip(self.curves, self.data.slices)):
+            text = structure_sentence(c, residual[sl], sigma[sl])
+            if text != NO_STRUCTURE:
+                parts.append(f"curve {k + 1} ({c.source}): {text}")
+        return "; ".join(parts) if parts else NO_STRUCTURE
+
+
+def in_loop(model) -> bool:
+    """The model is fitted with the finite-element model in the loop (some curve's core is a
+    :class:`~skin_indent.models.fe_core.FECore`)."""
+    return any(hasattr(c, "prefetch") for c in model.cores)
+
+
+def forward_runs(model) -> int:
+    """Finite-element runs made so far by the model's cores (0 for surfaces)."""
+    return sum(getattr(c, "runs", 0) for c in model.cores)
+
+
+def _axes(varied: list, options: dict) -> list:
+    """The axes of the product of start values: ``[(names, [values...])]``. A parameter of each
+    curve (``offset_mm[1]``, ``offset_mm[2]``) is one axis with the others of its name: the i-th
+    start value of every curve together (its own contact guess, then the same shifts in units of
+    each curve's indentation), not every combination."""
+    axes, grouped = [], {}
+    for k in varied:
+        base, curve = split_name(k)
+        if curve is None:
+            axes.append(((k,), [(v,) for v in options[k]]))
+        elif base in grouped:
+            grouped[base][0].append(k)
+        else:
+            grouped[base] = ([k], len(axes))
+            axes.append(None)
+    for base, (keys, at) in grouped.items():
+        width = max(len(options[k]) for k in keys)
+        values = [tuple(options[k][min(i, len(options[k]) - 1)] for k in keys) for i in range(width)]
+        axes[at] = (tuple(keys), values)
+    return axes
 
 
 def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:

@@ -44,15 +44,17 @@ import numpy as np
 
 from ..measurement import MeasurementError
 from ..measurement.preparation import MIN_DEPTH_RATIO
-from ..measurement.scale import format_modulus
+from ..measurement.scale import Name, Quantity, UnitText, format_modulus
 
-__all__ = ["MODULUS_RANGE_KPA", "POINTS_PER_PARAMETER", "check_points", "contact_points",
-           "min_points", "scale_flags", "soft_min_points"]
+__all__ = ["MODULUS_RANGE_KPA", "POINTS_PER_PARAMETER", "check_points", "contact_points", "depth_ratio_flags",
+           "min_points", "modulus_flags", "points_flags", "scale_flags", "soft_min_points", "undetermined_flags"]
 
 #: Young's moduli (kPa) a soft tissue or gel can have: 10 Pa to 100 MPa (see the module docstring)
 MODULUS_RANGE_KPA = (1e-2, 1e5)
 #: points in contact per free parameter below which the fit is flagged (the soft minimum)
 POINTS_PER_PARAMETER = 5
+#: a misfit above this many times the independent noise: the modulus itself is not to be trusted (a flag)
+MISFIT_FLAG = 10.0
 #: parameters that are positions or offsets, not sizes: their sd is never compared with their value
 SIGNED = ("offset_mm", "baseline_mN")
 
@@ -100,8 +102,9 @@ def check_points(prepared, n_free: int) -> None:
 
 
 def _signed(name: str) -> bool:
-    """A position or offset (``offset_mm``, ``baseline_mN``, and their numbered repeats)."""
-    return re.sub(r"\d+(?=_)", "", name) in SIGNED
+    """A position or offset (``offset_mm``, ``baseline_mN``, their numbered repeats and each curve's
+    own, ``offset_mm[2]``)."""
+    return re.sub(r"\d+(?=_)", "", re.sub(r"\[\d+\]$", "", name)) in SIGNED
 
 
 def scale_flags(result, *, free_names=None, at_bounds=()) -> list[str]:
@@ -122,35 +125,57 @@ def scale_flags(result, *, free_names=None, at_bounds=()) -> list[str]:
     -------
     list of str
     """
-    flags = []
-    E = result.parameters.get("E_kPa", math.nan)
+    flags = modulus_flags(result.parameters.get("E_kPa", math.nan))
+    flags += depth_ratio_flags(result.max_depth_ratio, result.radius_mm)
+    flags += points_flags(contact_points(result.prepared, result.contact_point_mm), int(result.n_free))
+    names = list(result.std) if free_names is None else list(free_names)
+    flags += undetermined_flags(result.parameters, result.std, names, at_bounds)
+    return flags
+
+
+def modulus_flags(E: float) -> list[str]:
+    """A Young's modulus (kPa) outside :data:`MODULUS_RANGE_KPA`, with the likely slip."""
     lo, hi = MODULUS_RANGE_KPA
     if math.isfinite(E) and E < lo:
-        flags.append(f"E = {format_modulus(E)} is softer than any tissue or gel ({format_modulus(lo)} to "
-                     f"{format_modulus(hi)}): forces in N in a column labelled mN (E 1000 x too small), or a sphere "
-                     "radius in um typed as mm (E ~30 x too small)?")
-    elif math.isfinite(E) and E > hi:
-        flags.append(f"E = {format_modulus(E)} is stiffer than any soft tissue or gel ({format_modulus(lo)} to "
-                     f"{format_modulus(hi)}): forces in mN in a column labelled N or uN (E 1000 x too large), or "
-                     "depths in mm labelled um?")
-    ratio = result.max_depth_ratio
-    if math.isfinite(ratio) and 0 < ratio < MIN_DEPTH_RATIO:
-        hint = (f" (a radius in um typed as mm? --radius takes mm: {result.radius_mm / 1e3:g} for {result.radius_mm:g} um)"
-                if ratio * 1e3 <= 0.5 else "")
-        flags.append(f"h/R = {ratio:.2g}: the indentation is below 1e-3 of the sphere radius R = "
-                     f"{result.radius_mm:g} mm, under what instruments resolve{hint}")
-    n_free = int(result.n_free)
-    n = contact_points(result.prepared, result.contact_point_mm)
+        return [f"E = {format_modulus(E)} is softer than any tissue or gel ({format_modulus(lo)} to "
+                f"{format_modulus(hi)}): forces in N in a column labelled mN (E 1000 x too small), or a sphere "
+                "radius in um typed as mm (E ~30 x too small)?"]
+    if math.isfinite(E) and E > hi:
+        return [f"E = {format_modulus(E)} is stiffer than any soft tissue or gel ({format_modulus(lo)} to "
+                f"{format_modulus(hi)}): forces in mN in a column labelled N or uN (E 1000 x too large), or "
+                "depths in mm labelled um?"]
+    return []
+
+
+def depth_ratio_flags(ratio: float, radius_mm: float, where: str = "") -> list[str]:
+    """An indentation below :data:`MIN_DEPTH_RATIO` of the sphere radius (``where``: which curve)."""
+    if not (math.isfinite(ratio) and 0 < ratio < MIN_DEPTH_RATIO):
+        return []
+    hint = (f" (a radius in um typed as mm? --radius takes mm: {radius_mm / 1e3:g} for {radius_mm:g} um)"
+            if ratio * 1e3 <= 0.5 else "")
+    return [f"{where}h/R = {ratio:.2g}: the indentation is below 1e-3 of the sphere radius R = "
+            f"{radius_mm:g} mm, under what instruments resolve{hint}"]
+
+
+def points_flags(n: int, n_free: int) -> list[str]:
+    """Fewer points in contact than :func:`soft_min_points` for ``n_free`` parameters."""
     if n_free and n < soft_min_points(n_free):
-        flags.append(f"{n} points in contact for {n_free} fitted parameters (fewer than {POINTS_PER_PARAMETER} per "
-                     "parameter): too few to judge the fit; a window that cuts the curve or a decimated export?")
-    names = list(result.std) if free_names is None else list(free_names)
+        return [f"{n} points in contact for {n_free} fitted parameters (fewer than {POINTS_PER_PARAMETER} per "
+                "parameter): too few to judge the fit; a window that cuts the curve or a decimated export?"]
+    return []
+
+
+def undetermined_flags(parameters: dict, std: dict, names, at_bounds=()) -> list[str]:
+    """Positive parameters of ``names`` whose standard deviation exceeds their value."""
+    flags = []
     for name in names:
-        value, sd = result.parameters.get(name, math.nan), result.std.get(name, math.nan)
+        value, sd = parameters.get(name, math.nan), std.get(name, math.nan)
         if _signed(name) or name in at_bounds or not (math.isfinite(value) and value > 0 and math.isfinite(sd)):
             continue
         if sd > value:
-            flags.append(f"{name} is not determined by this curve (sd {sd:.3g} > value {value:.3g}): "
-                         + ("hold it fixed if it is known (--fix)" if name != "E_kPa" else
-                            "too few points, too shallow a curve, or E and nu both free at small h/R (--fix nu=0.5)"))
+            flags.append(UnitText("{name} is not determined by this curve (sd {sd:.3g} > value {value:.3g}): {why}",
+                                  name=Name(name), sd=Quantity(sd, name), value=Quantity(value, name),
+                                  why="hold it fixed if it is known (--fix)" if name != "E_kPa" else
+                                  "too few points, too shallow a curve, or E and nu both free at small h/R "
+                                  "(--fix nu=0.5)"))
     return flags

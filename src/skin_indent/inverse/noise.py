@@ -6,11 +6,17 @@ import numpy as np
 
 from ._problem import check_data
 
-__all__ = ["estimate_noise"]
+__all__ = ["estimate_noise", "noise_min_points"]
 
 _MAD_TO_SIGMA = 1.482602218505602  # 1 / Phi^-1(3/4)
 _CLIP = 3.5                          # inliers: |r| <= 3.5 MAD-sigma
 _CLIP_VAR = 0.9938933                # E[z^2 | |z| <= 3.5] for z ~ N(0, 1)
+
+
+def noise_min_points(half_width: int = 2) -> int:
+    """The fewest points :func:`estimate_noise` takes: ``2 * half_width + 3`` (7 for its local cubic),
+    so that at least three interior points are predicted from their neighbours."""
+    return 2 * int(half_width) + 3
 
 
 def estimate_noise(depth, force, *, half_width: int = 2) -> float:
@@ -57,7 +63,7 @@ def estimate_noise(depth, force, *, half_width: int = 2) -> float:
     k = int(half_width)
     if k < 1:
         raise ValueError(f"half_width must be >= 1, got {half_width}")
-    depth, force = check_data(depth, force, min_points=2 * k + 3)
+    depth, force = check_data(depth, force, min_points=noise_min_points(k))
     order = np.argsort(depth, kind="stable")
     x, y = depth[order], force[order]
     if np.any(np.diff(x) <= 0):

@@ -38,7 +38,11 @@ the modules, in the order data flows through them, are:
   :func:`estimate_contact_point`;
 - :mod:`.preparation`: :func:`prepare` and :class:`PreparedCurve`, the one way a
   recorded curve is made ready for fits and diagnosis (segments, baseline, contact
-  point, window, binning, radius, scale checks).
+  point, window, binning, radius, scale checks);
+- :mod:`.curve_set`: :class:`CurveSet`, several prepared curves of one sample (two
+  spheres, two speeds...), fitted and diagnosed together;
+- :mod:`.curve_files` (imported from there): every curve of files, folders and force maps
+  with where it comes from, what batches of fits and diagnoses read.
 """
 
 from ._errors import MeasurementError
@@ -55,12 +59,14 @@ from .instrument import AFMFORMATS_MISSING, load_curve, load_curves
 from .optics11 import load_chiaro_txt
 from .segments import Segment, find_segments
 from .preparation import CONTACT_MODES, SEGMENTS, SKIN_RADIUS_MM, PreparedCurve, prepare
+from .curve_set import CurveSet
 
 __all__ = [
     "CONTACT_MODES",
     "SEGMENTS",
     "SKIN_RADIUS_MM",
     "PreparedCurve",
+    "CurveSet",
     "prepare",
     "AFMFORMATS_MISSING",
     "DEPTH_COLUMNS",

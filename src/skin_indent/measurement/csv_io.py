@@ -316,7 +316,8 @@ def load_csv(path, *, radius_mm: float | None = None) -> Measurement:
 
 
 def save_csv(measurement: Measurement, path) -> Path:
-    """Write ``time_s,depth_mm,force_mN`` (or ``depth_mm,force_mN``) atomically.
+    """Write ``time_s,depth_mm,force_mN`` (or ``depth_mm,force_mN``) atomically, after a
+    ``# radius_mm: R`` line when the measurement knows its sphere's radius.
 
     The text goes to a temporary file in the same directory, which is then
     moved into place with :func:`os.replace`, so no reader sees a partial
@@ -330,4 +331,7 @@ def save_csv(measurement: Measurement, path) -> Path:
         header.insert(0, "time_s")
         cols.insert(0, measurement.time_s)
     lines = [",".join(header)] + [",".join(repr(float(v)) for v in row) for row in zip(*cols)]
+    radius = getattr(measurement, "radius_mm", None)
+    if radius is not None:  # the sphere's radius travels with the curve (read back by load_csv)
+        lines.insert(0, f"# radius_mm: {float(radius)!r}")
     return atomic_write(path, lambda fh: fh.write(("\n".join(lines) + "\n").encode("utf-8")))

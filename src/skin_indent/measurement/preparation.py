@@ -31,8 +31,9 @@ import numpy as np
 from ._errors import MeasurementError
 from .contact import Baseline, ContactPoint, find_contact_point
 from .core import Measurement
+from .scale import Quantity, UnitText
 from .segments import find_segments
-from ..inverse.noise import estimate_noise
+from ..inverse.noise import estimate_noise, noise_min_points
 
 #: kinds of motion of a curve
 SEGMENTS = ("approach", "hold", "retract")
@@ -147,7 +148,19 @@ class PreparedCurve:
         return self.high_frequency_noise_mN(), "high-frequency part of the data (local cubic prediction)"
 
     def high_frequency_noise_mN(self) -> float:
-        """Noise (mN) from the data: local cubic prediction along time (or point) order."""
+        """Noise (mN) from the data: local cubic prediction along time (or point) order.
+
+        Raises
+        ------
+        MeasurementError
+            One line naming the cause when the data cannot give it: fewer points than the local
+            cubic needs (:func:`~skin_indent.inverse.noise.noise_min_points`, 7), or a noise-free
+            curve; both say to give the noise level.
+        """
+        if self.n < noise_min_points():
+            raise MeasurementError(
+                f"{self.source}: {self.n} points are too few to estimate the noise from the data (the local cubic "
+                f"prediction needs at least {noise_min_points()}): give the noise level (--noise, noise_mN=...)")
         t = self.time_s
         x = t if t is not None and np.all(np.diff(t) > 0) else np.arange(self.n, dtype=float)
         sigma = estimate_noise(x, self.force_mN)
@@ -332,5 +345,6 @@ def _check_scale(m: Measurement, depth, force, c0, radius, radius_source) -> lis
                                f"{where}): deeper than the sphere's radius; {hint} or {wrong}")
     notes = []
     if radius_source == "default":
-        notes.append(f"sphere radius not given: the skin default R = {SKIN_RADIUS_MM:g} mm is used")
+        notes.append(UnitText("sphere radius not given: the skin default R = {R:g} is used",
+                              R=Quantity(SKIN_RADIUS_MM, "mm")))
     return notes

@@ -12,6 +12,11 @@ One rule, :func:`afm_scale`, decides; everything that depends on the scale asks 
 JSON, TSV and CSV outputs keep the package units whatever the scale (mm, mN, kPa, in the
 names: ``E_kPa``, ``contact_point_mm``, ``noise_mN``), so tables of mixed folders stay one
 table and read back the same way.
+
+Notes and flags that hold numbers (the incompressible limit's extrapolation, a value held, a
+prior, a parameter its curve does not determine) are :class:`UnitText`: a ``str`` in package
+units (what JSON keeps) that :func:`shown_in` writes in the units of the scale (what the text
+of a fit prints), from the same numbers.
 """
 
 from __future__ import annotations
@@ -19,8 +24,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["AFM_RADIUS_MM", "AFM_UNITS", "SKIN_UNITS", "DisplayUnits", "afm_scale", "display_units",
-           "format_modulus"]
+__all__ = ["AFM_RADIUS_MM", "AFM_UNITS", "SKIN_UNITS", "DisplayUnits", "Name", "Quantity", "UnitText", "afm_scale",
+           "display_units", "format_modulus", "shown_in"]
 
 #: spheres smaller than this radius (mm) are AFM or cell-scale probes: colloidal AFM probes and
 #: nanoindenter tips are 1-250 um in radius (Chiaro 3-250 um), skin and tissue indenters use
@@ -69,18 +74,29 @@ class DisplayUnits:
 
     def name(self, name: str) -> str:
         """A parameter's name with its unit suffix in these units: ``E_kPa`` -> ``E_Pa``,
-        ``offset_mm`` -> ``offset_um``; a name without a unit suffix as it is."""
+        ``offset_mm`` -> ``offset_um``, ``offset_mm[2]`` (curve 2's) -> ``offset_um[2]``; a name
+        without a unit suffix as it is."""
+        name, curve = _curve_suffix(name)
         for suffix, unit in (("_kPa", self.modulus), ("_mm", self.length), ("_mN", self.force)):
             if name.endswith(suffix):
-                return name[: -len(suffix)] + "_" + unit
-        return name
+                return name[: -len(suffix)] + "_" + unit + curve
+        return name + curve
 
     def factor(self, name: str) -> float:
         """The factor from a parameter's package unit (by its suffix) to these units."""
+        name, _ = _curve_suffix(name)
         for suffix, k in (("_kPa", self.per_kPa), ("_mm", self.per_mm), ("_mN", self.per_mN)):
             if name.endswith(suffix):
                 return k
         return 1.0
+
+
+def _curve_suffix(name: str) -> tuple[str, str]:
+    """``"offset_mm[2]"`` -> ``("offset_mm", "[2]")`` (a curve's own parameter of a joint fit)."""
+    if name.endswith("]") and "[" in name:
+        base, _, k = name.rpartition("[")
+        return base, "[" + k
+    return name, ""
 
 
 SKIN_UNITS = DisplayUnits("mm", "mN", "kPa", 1.0, 1.0, 1.0)
@@ -105,3 +121,102 @@ def format_modulus(E_kPa: float) -> str:
         if abs(E_kPa) >= floor:
             return f"{E_kPa * k:.3g} {unit}"
     return f"{E_kPa * 1e3:.3g} Pa"
+
+
+#: the package units a :class:`Quantity` may carry, and the :class:`DisplayUnits` attributes of each
+_KINDS = {"kPa": ("modulus", "per_kPa"), "mm": ("length", "per_mm"), "mN": ("force", "per_mN")}
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A number in a package unit, for a :class:`UnitText`.
+
+    Formatted (``f"{q:.5g}"``) it is the number and its unit (``"0.17587 kPa"``); in a
+    :class:`UnitText` written in other units it is converted first (``"175.87 Pa"``).
+
+    Parameters
+    ----------
+    value : float
+        In the package unit ``unit``.
+    unit : {"kPa", "mm", "mN"} or str
+        The package unit; or a parameter name with a unit suffix (``"offset_mm"``,
+        ``"E_kPa"``, ``"nu"``), for a value written after the parameter's name: converted by the
+        name's suffix, written without a unit (the name says it).
+    """
+
+    value: float
+    unit: str
+
+    def shown(self, units: DisplayUnits) -> "_Shown":
+        """This quantity in ``units``: a value that formats with its unit name (or none, for a parameter)."""
+        if self.unit in _KINDS:
+            kind, per = _KINDS[self.unit]
+            return _Shown(self.value * getattr(units, per), getattr(units, kind))
+        return _Shown(self.value * units.factor(self.unit), "")
+
+    def __format__(self, spec: str) -> str:
+        return format(self.shown(SKIN_UNITS), spec)
+
+
+@dataclass(frozen=True)
+class _Shown:
+    value: float
+    unit: str
+
+    def __format__(self, spec: str) -> str:
+        return f"{self.value:{spec}}" + (f" {self.unit}" if self.unit else "")
+
+
+@dataclass(frozen=True)
+class Name:
+    """A parameter's name in a :class:`UnitText`: written with the unit suffix of the units shown
+    (``E_kPa`` -> ``E_Pa`` in AFM units, :meth:`DisplayUnits.name`)."""
+
+    name: str
+
+    def shown(self, units: DisplayUnits) -> str:
+        return units.name(self.name)
+
+    def __format__(self, spec: str) -> str:
+        return format(self.name, spec)
+
+
+class UnitText(str):
+    """A message with numbers in units: a ``str`` in package units that reads in any units.
+
+    ``UnitText("E = {E:.5g}", E=Quantity(0.13668, "kPa"))`` is the string
+    ``"E = 0.13668 kPa"`` (what JSON keeps; every ``str`` operation sees it), and
+    :meth:`in_units` (or :func:`shown_in`) writes it in other units from the same numbers
+    (``"E = 136.68 Pa"`` in :data:`AFM_UNITS`).
+
+    Parameters
+    ----------
+    template : str
+        A :meth:`str.format` template.
+    **fields
+        Its fields: :class:`Quantity`, :class:`Name` (a parameter's name) or any other value
+        (written as it is).
+    """
+
+    def __new__(cls, template: str, **fields):
+        text = super().__new__(cls, template.format(**fields))
+        text.template, text.fields = template, dict(fields)
+        return text
+
+    def in_units(self, units: DisplayUnits) -> str:
+        """The text in ``units`` (a plain ``str``)."""
+        return self.template.format(**{k: (v.shown(units) if isinstance(v, (Quantity, Name)) else v)
+                                        for k, v in self.fields.items()})
+
+    def __reduce__(self):  # pickled (to worker processes) with its template and fields
+        return _unit_text, (self.template, self.fields)
+
+
+def _unit_text(template: str, fields: dict) -> UnitText:
+    return UnitText(template, **fields)
+
+
+def shown_in(text, units: DisplayUnits) -> str:
+    """A note or flag as the text of a fit prints it: a :class:`UnitText` in ``units``, any other
+    text as it is."""
+    return text.in_units(units) if isinstance(text, UnitText) else str(text)

@@ -159,34 +159,73 @@ class ComposedModel:
 
     def reported(self, x, cov) -> tuple[dict, dict]:
         """Model parameters and their standard deviations (delta method with ``cov`` of ``x``)."""
-        x = np.asarray(x, dtype=float)
-        params = self.model_parameters(x)
-        names = list(params)
-        C = np.asarray(cov, dtype=float) if cov is not None else np.full((x.size, x.size), np.nan)
-        G = np.zeros((len(names), x.size))
-        for j in range(x.size):
-            step = 1e-6 * max(abs(x[j]), 1e-6)
-            up, down = x.copy(), x.copy()
-            up[j] += step
-            down[j] -= step
-            a, b = self.model_parameters(up), self.model_parameters(down)
-            for i, n in enumerate(names):
-                diff = a[n] - b[n]
-                G[i, j] = diff / (2 * step) if math.isfinite(diff) else 0.0
-        std = {}
+        return reported_parameters(self, x, cov)
+
+    # ------------------------------------------------------------- finite-element cores
+    @property
+    def cores(self) -> tuple:
+        """The elastic cores of the model (one: its ``core``)."""
+        return (self.core,)
+
+    def screening(self):
+        """Context of cheap runs that only rank start vectors (:meth:`~skin_indent.models.fe_core.FECore.screening`),
+        or nothing for a surface."""
+        enter = getattr(self.core, "screening", None)
+        return enter() if callable(enter) else contextlib.nullcontext()
+
+    def prefetch(self, xs) -> None:
+        """Make the finite-element runs of several fit vectors at once (nothing for a surface)."""
+        fetch = getattr(self.core, "prefetch", None)
+        if callable(fetch):
+            fetch([np.asarray(x, dtype=float)[: self._n_core] for x in xs])
+
+
+def reported_parameters(model, x, cov) -> tuple[dict, dict]:
+    """Model parameters of a fit vector and their standard deviations (the delta method).
+
+    Parameters
+    ----------
+    model
+        A fitted model with ``model_parameters(x)`` (:class:`ComposedModel`, :class:`~.joint.JointModel`).
+    x : ndarray
+        Fit vector.
+    cov : ndarray or None
+        Its covariance (None: standard deviations NaN).
+
+    Returns
+    -------
+    params, std : dict
+        ``{name: value}`` and ``{name: standard deviation}`` in the parameters' units (``inf`` for
+        an infinite value, 0 for a parameter that no fitted coordinate moves).
+    """
+    x = np.asarray(x, dtype=float)
+    params = model.model_parameters(x)
+    names = list(params)
+    C = np.asarray(cov, dtype=float) if cov is not None else np.full((x.size, x.size), np.nan)
+    G = np.zeros((len(names), x.size))
+    for j in range(x.size):
+        step = 1e-6 * max(abs(x[j]), 1e-6)
+        up, down = x.copy(), x.copy()
+        up[j] += step
+        down[j] -= step
+        a, b = model.model_parameters(up), model.model_parameters(down)
         for i, n in enumerate(names):
-            g = G[i]
-            used = g != 0
-            if not math.isfinite(params[n]):
-                std[n] = math.inf
-                continue
-            if not np.any(used):
-                std[n] = 0.0
-                continue
-            sub = C[np.ix_(used, used)]
-            var = float(g[used] @ sub @ g[used]) if np.all(np.isfinite(sub)) else math.nan
-            std[n] = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
-        return params, std
+            diff = a[n] - b[n]
+            G[i, j] = diff / (2 * step) if math.isfinite(diff) else 0.0
+    std = {}
+    for i, n in enumerate(names):
+        g = G[i]
+        used = g != 0
+        if not math.isfinite(params[n]):
+            std[n] = math.inf
+            continue
+        if not np.any(used):
+            std[n] = 0.0
+            continue
+        sub = C[np.ix_(used, used)]
+        var = float(g[used] @ sub @ g[used]) if np.all(np.isfinite(sub)) else math.nan
+        std[n] = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
+    return params, std
 
 
 def declared_parameters(model) -> dict:

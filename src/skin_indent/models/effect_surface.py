@@ -28,7 +28,6 @@ from __future__ import annotations
 import functools
 import itertools
 import logging
-import sys
 from typing import Mapping
 
 import numpy as np
@@ -40,13 +39,12 @@ from ..effects import Model
 from ..response_surface import NodeForces, ResponseSurface
 from ..response_surface import RunStore
 from ..response_surface import resolve_model, run_key, run_task
-from ..response_surface.run_cache import module_digest
 from ..runtime.executors import make_executor
 from ..runtime.log import progress_bar
 
 log = logging.getLogger(__name__)
 
-__all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_force", "model_unit_curve"]
+__all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve"]
 
 
 
@@ -72,42 +70,6 @@ def model_unit_curve(nu: float, depth_mm, *, effects: tuple, parameters: tuple, 
     """Force (mN) at E = 1 kPa of ``Model(effects)`` with unit ``parameters`` ((name, value), ...)."""
     theta = {"E_kPa": 1.0, "nu": float(nu), **dict(parameters)}
     return Model(tuple(effects), radius_mm).simulate(theta, np.asarray(depth_mm, float), mesh=mesh).force_mN
-
-
-def model_force(effects, radius_mm: float, theta: Mapping[str, float], depth_mm, *, mesh: str = "medium",
-                run_cache=None) -> np.ndarray:
-    """Force (mN) of a forward run of ``Model(effects, radius_mm)`` with ``theta`` to ``depth_mm``
-    (:meth:`~skin_indent.effects.Model.simulate`: a depth in mm gives 100 equally spaced points).
-
-    Parameters
-    ----------
-    effects : tuple of str
-    radius_mm : float
-        Sphere radius, mm.
-    theta : mapping
-        The model's parameters (``E_kPa``, ``nu``, ...).
-    depth_mm : float or array_like
-        Deepest depth (mm) or the depths themselves.
-    mesh : str
-        Mesh family member.
-    run_cache : RunCache, optional
-        Read the run from it, or solve it and keep it there
-        (:class:`~skin_indent.response_surface.RunCache`; keyed by the sample as built, the
-        contact law, the contact offset, the radius, the depths and the mesh).
-    """
-    model = Model(tuple(effects), float(radius_mm))
-
-    def compute():
-        return {"force_mN": model.simulate(dict(theta), depth_mm, mesh=mesh).force_mN}
-
-    if run_cache is None:
-        return compute()["force_mN"]
-    spec = model.spec(dict(theta))
-    parts = {"run": "skin_indent.effects.Model.simulate", "code": module_digest(sys.modules[Model.__module__]),
-             "sample": repr(spec.sample()), "contact": repr(model.contact(dict(theta))),
-             "offset_mm": float(spec.offset_mm), "radius_mm": float(radius_mm),
-             "depth_mm": np.asarray(depth_mm, dtype=float).tolist(), "mesh": mesh}
-    return run_cache.get_or_compute(parts, compute)["force_mN"]
 
 
 class EffectSurface:

@@ -396,11 +396,11 @@ class FECore:
         """Within the block every run goes to the worker processes, a single one too, and this
         process only waits for it: fits of several cores, each in a thread of this process
         (:meth:`~skin_indent.fitting.multistart.Fitter.fit_all`), then share the cores."""
-        self._in_workers = True
+        before, self._in_workers = self._in_workers, True
         try:
             yield self
         finally:
-            self._in_workers = False
+            self._in_workers = before  # re-entrant: a joint model's curves inside a fit of fit_all
 
     def start_workers(self) -> None:
         """Start the worker processes now, from the calling thread (the main one, before threads

@@ -1,6 +1,7 @@
 """The outputs of a batch of fits: a table with its provenance, a line of text per curve, and a summary figure.
 
-:func:`write_tsv` writes one line per curve of :func:`skin_indent.batch.fit_many` after
+:func:`write_tsv` writes one line per curve of :func:`skin_indent.batch.fit_many` (and of
+:func:`skin_indent.diagnosis.diagnose_many`, whose figures are :mod:`.verdict_map`'s) after
 ``#`` provenance lines, in the package units whatever the curve's scale (the units are in the
 column names: ``E_kPa``, ``contact_point_mm``, ``noise_mN``); :func:`row_line` is the line
 ``skin-indent fit`` prints per curve, in the units of the curve's scale (Pa, um and nN for
@@ -73,11 +74,17 @@ def _middle_ellipsis(text: str, width: int) -> str:
 
 
 def _columns(rows) -> tuple:
-    """The table columns of rows of one dataclass (:class:`skin_indent.batch.BatchRow`)."""
+    """The table columns of rows of one dataclass (:class:`skin_indent.batch.BatchRow`,
+    :class:`skin_indent.diagnosis.DiagnosisRow`)."""
     import dataclasses
 
-    return tuple(f.name for f in dataclasses.fields(rows[0]) if f.name not in ("fit", "parameters", "std")) if rows \
-        else ()
+    return tuple(f.name for f in dataclasses.fields(rows[0])
+                 if f.name not in ("fit", "diagnosis", "parameters", "std")) if rows else ()
+
+
+def _own(row) -> tuple:
+    """The parameters with a column of their own in ``row``'s table (``own_parameters`` of its class)."""
+    return getattr(type(row), "own_parameters", ("E_kPa", "nu", "offset_mm"))
 
 
 def write_tsv(rows, path, provenance: dict | None = None) -> Path:
@@ -85,8 +92,8 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
 
     Parameters
     ----------
-    rows : sequence of BatchRow
-        From :func:`fit_many`.
+    rows : sequence of BatchRow or DiagnosisRow
+        From :func:`~skin_indent.batch.fit_many` or :func:`~skin_indent.diagnosis.diagnose_many`.
     path : path
         The TSV file (written atomically, mode 0644 under the usual umask).
     provenance : dict, optional
@@ -99,8 +106,11 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
 
     Notes
     -----
-    Columns :data:`skin_indent.batch.TSV_COLUMNS`, then ``NAME`` and ``NAME_sd`` for each parameter of
-    the fitted models beyond E_kPa, nu and the contact point (``thickness_mm``, ``ratio``...): units in
+    Columns ``rows.columns`` (:data:`skin_indent.batch.TSV_COLUMNS` for fits,
+    :data:`skin_indent.diagnosis.batch.DIAGNOSIS_COLUMNS` for diagnoses), then ``NAME`` and ``NAME_sd`` for
+    each parameter of the models beyond those with a column of their own (``own_parameters`` of the row
+    class: E_kPa, nu and the contact point of a fit; E_kPa of a diagnosis' final model): ``thickness_mm``,
+    ``ratio``...; units in
     the names (mm, mN, kPa), the same for every row whatever its scale, as in JSON (an AFM-scale curve's
     E_kPa x 1000 is in Pa, its lengths x 1000 in um; the ``# units:`` line before the header says so,
     and the text of ``skin-indent fit`` shows them in Pa, um and nN: :func:`row_line`); empty cells for
@@ -111,7 +121,7 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
     """
     prov = provenance if provenance is not None else getattr(rows, "provenance", None)
     lines = (provenance_comment_lines(prov) if prov else []) + [UNITS_LINE]
-    extra = list(dict.fromkeys(k for r in rows for k in getattr(r, "parameters", {}) if k not in ("E_kPa", "nu", "offset_mm")))
+    extra = list(dict.fromkeys(k for r in rows for k in getattr(r, "parameters", {}) if k not in _own(r)))
     columns = rows.columns if hasattr(rows, "columns") else _columns(rows)
     lines.append("\t".join([*columns, *(c for k in extra for c in (k, f"{k}_sd"))]))
     for r in rows:

@@ -4,18 +4,23 @@
 ``residuals.png`` (residual of each model against depth, and against time when the
 curve has one, with the +-2 sd noise band), ``ladder.png`` (RMS and BIC of each
 rung and candidate) and ``index.html``, which embeds the three figures as base64 PNG
-so that the page reads offline in any browser, with the verdict, the parameter table
-and the ladder.
+so that the page reads offline in any browser, with the verdict, the parameter table,
+the ladder and the provenance (a table, and the record as JSON).
+
+The page is rendered by jinja2 from the template ``templates/diagnosis.html`` shipped with
+the package (autoescaped: a file name or a message cannot inject markup). The template loops
+over curves: :func:`page_context` makes the entry of one diagnosis, :func:`render_page` a
+page of any number of them with one provenance.
 
 Every number comes from the :class:`~skin_indent.diagnosis.workflow.Diagnosis` as it is:
 one rung per model (parameters, standard deviations, RMS, BIC), the same as its text
-report and its JSON.
+report and its JSON; :func:`page_context` formats them, the template only places them.
 """
 
 from __future__ import annotations
 
 import base64
-import html
+import functools
 import math
 from pathlib import Path
 
@@ -24,10 +29,14 @@ import numpy as np
 from ..runtime.atomic import atomic_write
 from ..diagnosis.workflow import FROM_FE
 from ..runtime.json_io import dumps
+from .. import __version__
 from ._save import save_figure
 from .labels import line_styles, model_label, same_curve_as
+from .sample_figure import sample_diagnosis_figure
 
 FIGURES = ("fit.png", "residuals.png", "ladder.png")
+#: the page's template, in ``skin_indent/report/templates`` (package data)
+TEMPLATE = "diagnosis.html"
 
 
 def _models(diag):
@@ -41,7 +50,16 @@ def _models(diag):
     return out
 
 
-def fit_figure(diag):
+def _canvas(fig, figsize):
+    """``fig`` (a Figure or a SubFigure to draw into), else a new Figure of ``figsize`` (inches)."""
+    if fig is not None:
+        return fig
+    from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
+
+    return Figure(figsize=figsize, layout="constrained")
+
+
+def fit_figure(diag, fig=None):
     """The measurement and every fitted model against depth (``fit.png``).
 
     Models are drawn in the order of :func:`_models` with their own line styles and
@@ -51,16 +69,17 @@ def fit_figure(diag):
     Parameters
     ----------
     diag : Diagnosis
+    fig : matplotlib.figure.Figure or SubFigure, optional
+        Draw into this (e.g. a panel of a composite figure); default a new figure.
 
     Returns
     -------
     matplotlib.figure.Figure
+        ``fig`` when given.
     """
-    from matplotlib.figure import Figure  # no pyplot: no GUI backend, no global state
-
     d = diag.data
     models = _models(diag)
-    fig = Figure(figsize=(7, 4.5), layout="constrained")
+    fig = _canvas(fig, (7, 4.5))
     ax = fig.subplots()
     ax.plot(d.depth_mm, d.force_mN, ".", ms=3, color="0.4", label="measurement")
     names = [model_label(f.model) for f in models]
@@ -75,23 +94,23 @@ def fit_figure(diag):
     return fig
 
 
-def residual_figure(diag):
+def residual_figure(diag, fig=None):
     """The residual of each model against depth (and time), with the +-2 sd noise band (``residuals.png``).
 
     Parameters
     ----------
     diag : Diagnosis
+    fig : matplotlib.figure.Figure or SubFigure, optional
+        Draw into this; default a new figure.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib.figure import Figure
-
     d = diag.data
     models = _models(diag)
     timed = d.time_s is not None
-    fig = Figure(figsize=(9 if timed else 7, 2.2 * len(models) + 0.4), layout="constrained")
+    fig = _canvas(fig, (9 if timed else 7, 2.2 * len(models) + 0.4))
     axes = fig.subplots(len(models), 2 if timed else 1, squeeze=False, sharex="col")
     band = 2.0 * diag.noise_mN
     xs = [(d.depth_mm, "depth (mm)")] + ([(d.time_s, "time (s)")] if timed else [])
@@ -112,27 +131,38 @@ def residual_figure(diag):
     return fig
 
 
-def ladder_figure(diag):
+def ladder_figure(diag, fig=None):
     """RMS and BIC of each model (``ladder.png``): the models by their names, BIC lower is better.
 
     Parameters
     ----------
     diag : Diagnosis
+    fig : matplotlib.figure.Figure or SubFigure, optional
+        Draw into this; default a new figure.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib.figure import Figure
-
     models = _models(diag)
-    fig = Figure(figsize=(9, 4.2), layout="constrained")
+    fig = _canvas(fig, (9, 4.2))
     a1, a2 = fig.subplots(1, 2)
     names = [model_label(f.model).replace(" + ", "\n+ ") for f in models]  # one effect per line
-    a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
-    a1.axhline(diag.noise_mN, color="tab:green", ls="--", label="noise")
-    a1.axhline(1.3 * diag.noise_mN, color="tab:green", ls=":", label="1.3 x noise")
-    a1.set_ylabel("RMS residual (mN)")
+    if getattr(diag, "joint", False):  # several curves: each curve's RMS over its own noise, side by side
+        k, width = len(diag.curves), 0.8 / len(diag.curves)
+        x = np.arange(len(models))
+        for j, (c, noise) in enumerate(zip(diag.curves, diag.noises_mN)):
+            a1.bar(x + (j - (k - 1) / 2) * width, [f.curve_rms_mN[j] / noise for f in models], width,
+                   color=f"C{j}", label=f"curve {j + 1} (R = {c.radius_mm:g} mm)")
+        a1.set_xticks(x, names)
+        a1.axhline(1.0, color="tab:green", ls="--", label="noise")
+        a1.axhline(1.3, color="tab:green", ls=":", label="1.3 x noise")
+        a1.set_ylabel("RMS residual / the curve's noise")
+    else:
+        a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
+        a1.axhline(diag.noise_mN, color="tab:green", ls="--", label="noise")
+        a1.axhline(1.3 * diag.noise_mN, color="tab:green", ls=":", label="1.3 x noise")
+        a1.set_ylabel("RMS residual (mN)")
     a1.set_title("misfit: down to the noise is enough", fontsize=9)
     a1.legend(fontsize=8)
     a2.bar(names, [f.bic for f in models], color="tab:purple")
@@ -150,43 +180,139 @@ def figures(diag, out_dir, provenance: dict | None = None) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     prov = provenance or getattr(diag, "provenance", None)
     paths = []
-    for name, draw in zip(FIGURES, (fit_figure, residual_figure, ladder_figure)):
+    draws = (fit_figure, residual_figure, ladder_figure)
+    names = FIGURES
+    if getattr(diag, "joint", False):  # several curves: each with the last rung and every rung's residual
+        draws, names = (sample_diagnosis_figure, ladder_figure), ("fit.png", "ladder.png")
+    for name, draw in zip(names, draws):
         paths.append(out / name)
         save_figure(draw(diag), paths[-1], prov)
     return paths
 
 
 def _fmt(v) -> str:
+    """A parameter or standard deviation as the page shows it (4 significant digits)."""
     if isinstance(v, float):
         if math.isinf(v):
             return "inf (rigid)" if v > 0 else "-inf"
         if math.isnan(v):
             return "-"
         return f"{v:.4g}"
-    return html.escape(str(v))
+    return str(v)
 
 
-def _provenance_block(prov) -> str:
-    """The provenance as a readable table, and as JSON in ``<script id="provenance">``."""
+def _surface_line(s) -> str:
+    """One surface of a provenance record, as the page names it."""
+    if not isinstance(s, dict):
+        return str(s)
+    settings = s.get("settings") or {}
+    where = ", ".join(f"{k} {settings[k]}" for k in ("mesh",) if k in settings)
+    if "radius_mm" in settings:
+        where += f"{', ' if where else ''}R = {settings['radius_mm']:g} mm"
+    what = " ".join(str(x) for x in (s.get("type"), settings.get("model")) if x)
+    ident = f"hash {str(s['hash'])[:12]}" if s.get("hash") else "its runs made during the fit"
+    return f"{what}{f' ({where})' if where else ''}: {ident}"
+
+
+def provenance_rows(prov) -> list[tuple[str, object]]:
+    """The provenance record as the rows of the page's table: ``(name, text or list of lines)``."""
     if not prov:
-        return ""
+        return []
     libs = ", ".join(f"{k} {v}" for k, v in (prov.get("libraries") or {}).items())
     made = prov.get("api") or " ".join(map(str, prov.get("command") or ()))
-    inputs = "<br>".join(
-        html.escape(f"{i.get('path', i.get('source', ''))}: sha256 {i.get('sha256', i.get('data_sha256', '-'))}"
-                    + (f" ({i['bytes']} bytes)" if "bytes" in i else "") + (f" ({i['error']})" if "error" in i else ""))
-        for i in prov.get("inputs") or ())
+    inputs = [f"{i.get('path', i.get('source', ''))}: sha256 {i.get('sha256', i.get('data_sha256', '-'))}"
+              + (f" ({i['bytes']} bytes)" if "bytes" in i else "") + (f" ({i['error']})" if "error" in i else "")
+              for i in prov.get("inputs") or ()]
     settings = ", ".join(f"{k} = {dumps(v)}" for k, v in (prov.get("settings") or {}).items())
     surface = prov.get("surface")
     surfaces = surface if isinstance(surface, list) else [surface] if surface else []
-    cells = [("skin_indent", f"{prov.get('skin_indent')} (Python {prov.get('python')}; {libs})"),
-             ("made by", made), ("at (UTC)", prov.get("time_utc", "")), ("inputs", None), ("settings", settings),
-             ("surfaces", ", ".join(str(s.get("hash", ""))[:12] for s in surfaces if isinstance(s, dict)) or "-")]
-    rows = "".join(f"<tr><th>{k}</th><td>{inputs or '-' if v is None else html.escape(str(v))}</td></tr>"
-                   for k, v in cells)
-    record = dumps(prov, sort_keys=True).replace("</", "<\\/")
-    return (f'<h2>Provenance</h2>\n<table id="provenance-table">{rows}</table>\n'
-            f'<script type="application/json" id="provenance">{record}</script>\n')
+    return [("skin_indent", f"{prov.get('skin_indent')} (Python {prov.get('python')}; {libs})"),
+            ("made by", made), ("at (UTC)", prov.get("time_utc", "")), ("inputs", inputs or "-"),
+            ("settings", settings), ("surfaces", [_surface_line(s) for s in surfaces] or "-")]
+
+
+def _script_json(prov) -> str:
+    """The record as JSON that is safe inside ``<script>`` (no ``<``, ``>`` or ``&``: a value cannot
+    close the element); ``json.loads`` of the element's text gives the record back."""
+    text = dumps(prov, sort_keys=True)
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+
+
+def page_context(diag, figure_paths=()) -> dict:
+    """The entry of one diagnosis in the page's template: its numbers, formatted as its text report
+    formats them (RMS 4 significant digits, BIC 1 decimal, parameters and sd 4 significant digits).
+
+    Parameters
+    ----------
+    diag : Diagnosis
+    figure_paths : sequence of path
+        PNG figures to embed (base64).
+
+    Returns
+    -------
+    dict
+    """
+    rows = []
+    joint = getattr(diag, "joint", False)
+    for f in _models(diag):
+        fe = diag.std_source if f is diag.current else {}
+        params = [{"name": k, "value": _fmt(v), "std": _fmt(f.std.get(k, math.nan)), "fe": fe.get(k) == FROM_FE}
+                  for k, v in f.parameters.items()]
+        rms = ", ".join(f"{v:.4g}" for v in f.curve_rms_mN) if joint else f"{f.rms_mN:.4g}"
+        rows.append({"model": f.model, "rms": rms, "bic": f"{f.bic:.1f}", "white": bool(f.white),
+                     "parameters": params, "structure": f.structure})
+    sample = [{"number": k + 1, "source": str(c.source), "points": c.n, "radius": f"{c.radius_mm:g}",
+               "noise": f"{s:.4g}", "noise_source": w}
+              for k, (c, s, w) in enumerate(zip(diag.curves, diag.noises_mN, diag.noise_sources))] if joint else []
+    return {
+        "source": str(diag.data.source), "name": " + ".join(Path(c.source).name for c in diag.curves) if joint
+        else Path(diag.data.source).name, "verdict": diag.verdict, "sample": sample,
+        "provisional": bool(diag.provisional), "sentence": diag.sentence(), "untried": list(diag.untried.items()),
+        "noise": ", ".join(f"{v:.4g}" for v in diag.noises_mN) if joint else f"{diag.noise_mN:.4g}",
+        "noise_source": diag.noise_source, "points": diag.data.n,
+        "binned": 1 if joint else diag.data.binned, "n_effective": f"{diag.n_effective:.1f}",
+        "radius": ", ".join(f"{c.radius_mm:g}" for c in diag.curves) if joint else f"{diag.radius_mm:g}",
+        "models": rows, "not_detectable": list(diag.not_detectable.items()),
+        "fe_note": FROM_FE if FROM_FE in diag.std_source.values() else "",
+        "figures": [{"name": p.name, "alt": p.stem, "base64": base64.b64encode(p.read_bytes()).decode()}
+                    for p in map(Path, figure_paths)],
+    }
+
+
+@functools.lru_cache(maxsize=1)
+def _template():
+    import jinja2
+
+    env = jinja2.Environment(loader=jinja2.PackageLoader("skin_indent.report", "templates"), autoescape=True,
+                             undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
+    return env.get_template(TEMPLATE)
+
+
+def render_page(curves, provenance: dict | None = None, title: str | None = None) -> str:
+    """The HTML page (:data:`TEMPLATE`) of one or several diagnosed curves.
+
+    Parameters
+    ----------
+    curves : sequence of dict
+        From :func:`page_context`, one per curve (a section each, in this order).
+    provenance : dict, optional
+        The record of how the page was made (:func:`skin_indent.runtime.provenance.provenance`):
+        a table, and the record as JSON in ``<script type="application/json" id="provenance">``.
+    title : str, optional
+        Default ``skin-indent diagnose: <file name>`` (of each curve).
+
+    Returns
+    -------
+    str
+    """
+    curves = list(curves)
+    if title is None:
+        title = "skin-indent diagnose: " + ", ".join(c["name"] for c in curves)
+    from markupsafe import Markup  # installed with jinja2
+
+    return _template().render(title=title, curves=curves, generator=f"skin_indent {__version__}",
+                              provenance=provenance_rows(provenance),
+                              provenance_json=Markup(_script_json(provenance)) if provenance else "")
 
 
 def write_report(diag, out_dir, provenance: dict | None = None) -> Path:
@@ -201,47 +327,16 @@ def write_report(diag, out_dir, provenance: dict | None = None) -> Path:
         default the diagnosis's own (``diag.provenance``, the API call). The page shows it
         in a table and holds it as JSON (``<script type="application/json"
         id="provenance">``); each PNG holds it in its metadata.
+
+    Returns
+    -------
+    Path
+        ``out_dir/index.html``, rendered by :func:`render_page` (written atomically).
     """
     out = Path(out_dir)
     prov = provenance or getattr(diag, "provenance", None)
     paths = figures(diag, out, prov)
-    imgs = "\n".join(
-        f'<figure><img alt="{p.stem}" src="data:image/png;base64,{base64.b64encode(p.read_bytes()).decode()}">'
-        f"<figcaption>{p.name}</figcaption></figure>" for p in paths)
-    rows = []
-    for f in _models(diag):
-        fe = diag.std_source if f is diag.current else {}
-        params = ", ".join(f"{k} = {_fmt(v)} &plusmn; {_fmt(f.std.get(k, math.nan))}"
-                           + ("<sup>FE</sup>" if fe.get(k) == FROM_FE else "") for k, v in f.parameters.items())
-        rows.append(f"<tr><td>{html.escape(f.model)}</td><td>{f.rms_mN:.4g}</td><td>{f.bic:.1f}</td>"
-                    f"<td>{'yes' if f.white else 'no'}</td><td>{params}</td><td>{html.escape(f.structure)}</td></tr>")
-    nd = "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in diag.not_detectable.items())
-    untried = "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in diag.untried.items())
-    provisional = ("" if not diag.provisional else
-                   f'<p class="provisional" id="provisional"><b>Provisional:</b> combinations not tried</p>'
-                   f"<ul>{untried}</ul>")
-    fe_note = ("" if FROM_FE not in diag.std_source.values() else
-               f"<p><sup>FE</sup> standard deviation from {FROM_FE} at the fitted values (it decides whether the "
-               "parameter is determined); the others from the fit's covariance.</p>")
-    page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>skin-indent diagnose: {html.escape(Path(diag.data.source).name)}</title>
-<style>body{{font-family:sans-serif;max-width:1000px;margin:2em auto;line-height:1.4}}
-table{{border-collapse:collapse;font-size:0.85em}}td,th{{border:1px solid #ccc;padding:4px}}
-img{{max-width:100%}}.verdict{{font-size:1.1em;background:#eef;padding:0.8em}}.provisional{{background:#fec;padding:0.5em}}</style></head>
-<body>
-<h1>Diagnosis of {html.escape(str(diag.data.source))}</h1>
-<p class="verdict" id="verdict"><b>Verdict: {html.escape(diag.verdict)}{' (provisional)' if diag.provisional else ''}.</b> {html.escape(diag.sentence())}</p>
-{provisional}
-<p>Noise {diag.noise_mN:.4g} mN, {html.escape(diag.noise_source)}; {diag.data.n} points
-(binned by {diag.data.binned}); effective sample size {diag.n_effective:.1f} (every BIC); sphere R = {diag.radius_mm:g} mm.</p>
-<h2>Models</h2>
-<table><tr><th>model</th><th>RMS (mN)</th><th>BIC</th><th>white</th><th>parameters</th><th>where it fails</th></tr>
-{''.join(rows)}</table>
-{fe_note}<h2>Not detectable here</h2><ul>{nd or '<li>-</li>'}</ul>
-<h2>Figures</h2>
-{imgs}
-{_provenance_block(prov)}</body></html>
-"""
+    page = render_page([page_context(diag, paths)], prov)
     index = out / "index.html"
     atomic_write(index, lambda fh: fh.write(page.encode()))
     return index

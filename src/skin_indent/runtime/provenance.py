@@ -101,18 +101,27 @@ def _hash_file(p: Path, where: str) -> dict:
 
 
 def surface_identity(surface) -> dict | list | None:
-    """The identity of a response surface: its ``hash`` and ``settings``.
+    """The identity of a response surface, or of any elastic force model a fit used.
 
     Parameters
     ----------
-    surface : ResponseSurface, dict, sequence of those, or None
-        A surface (any object with ``hash`` and ``settings`` attributes), an identity
-        already made (a dict, kept as is), or several of them (a list, duplicates by
-        hash dropped).
+    surface : object, dict, sequence of those, or None
+        A response surface (an object with ``hash`` and ``settings`` attributes); an effect
+        surface (``effects``, ``axes`` and ``surfaces``, an array of response surfaces: one per
+        node of the effect axes); the finite-element model in the loop (``effects``,
+        ``mesh_name``, ``radius_mm``, ``depth_range``: its runs are made during the fit); an
+        identity already made (a dict, kept as is); or several of them (a list, duplicates
+        dropped).
 
     Returns
     -------
     dict, list of dict or None
+        ``{"type", "hash", "settings"}`` for a response surface; for an effect surface
+        ``hash`` is the sha256 of its sub-surfaces' hashes in node order, ``settings`` what
+        they share (model, mesh, radius, code version), ``axes`` the nodes of each effect
+        axis and ``surfaces`` how many sub-surfaces; the finite-element model in the loop has
+        no ``hash`` (nothing is stored), its ``settings`` say what its runs solve (model,
+        mesh, radius, deepest depth).
     """
     if surface is None:
         return None
@@ -127,8 +136,24 @@ def surface_identity(surface) -> dict | list | None:
                 seen.add(key)
                 out.append(ident)
         return out
+    kind = type(surface).__name__
+    if getattr(surface, "surfaces", None) is not None and hasattr(surface, "axes"):  # an effect surface
+        parts = list(np.asarray(surface.surfaces, dtype=object).flat)
+        digest = hashlib.sha256()
+        for part in parts:
+            digest.update(str(getattr(part, "hash", "")).encode() + b"\0")
+        settings = [dict(getattr(part, "settings", None) or {}) for part in parts]
+        shared = {k: v for k, v in (settings[0] if settings else {}).items()
+                  if k != "unit_parameters" and all(s.get(k) == v for s in settings)}
+        return jsonable({"hash": digest.hexdigest(), "settings": shared, "type": kind,
+                         "axes": {a.name: list(a.nodes) for a in surface.axes}, "surfaces": len(parts)})
+    if hasattr(surface, "mesh_name") and hasattr(surface, "effects"):  # finite elements in the loop
+        model = "neo-hooke" + "".join(f"+{getattr(e, 'name', e)}" for e in surface.effects)
+        return jsonable({"hash": None, "type": kind,
+                         "settings": {"model": model, "mesh": surface.mesh_name, "radius_mm": surface.radius_mm,
+                                      "depth_range_mm": list(getattr(surface, "depth_range", ()))}})
     return jsonable({"hash": getattr(surface, "hash", None), "settings": getattr(surface, "settings", None),
-                     "type": type(surface).__name__})
+                     "type": kind})
 
 
 def data_identity(measurement) -> dict:
@@ -242,7 +267,8 @@ def records_call(api: str, data: str = "data", leave_out: tuple = ("context",)):
     set to :func:`provenance` of the call: ``api`` the function's public name, ``inputs``
     the :func:`data_identity` of the argument ``data``, ``settings`` the other arguments
     as given (not the defaults; made JSON-safe; a surface or context object is left out:
-    the surface used is recorded by identity from the result's ``surface``). Calls made
+    the surfaces used are recorded by identity from the result's ``surface``, or its
+    ``surfaces`` (a diagnosis: every surface its fits used)). Calls made
     inside a recorded call (the two fits of the incompressible limit) are not recorded.
 
     Parameters
@@ -280,9 +306,12 @@ def records_call(api: str, data: str = "data", leave_out: tuple = ("context",)):
                     settings.update({k: v for k, v in value.items() if k not in leave_out})
                 else:
                     settings[name] = value
-            inputs = [data_identity(bound[data])] if data in bound else []
-            record = provenance(inputs=inputs, settings=settings, surface=getattr(result, "surface", None) or None,
-                                api=api)
+            given = bound.get(data)
+            several = isinstance(given, (list, tuple)) or hasattr(given, "curves")  # curves of one sample
+            inputs = [] if data not in bound else ([data_identity(m) for m in given] if several
+                                                   else [data_identity(given)])
+            used = getattr(result, "surface", None) or getattr(result, "surfaces", None) or None
+            record = provenance(inputs=inputs, settings=settings, surface=used, api=api)
             return dataclasses.replace(result, provenance=record)
 
         return wrapper

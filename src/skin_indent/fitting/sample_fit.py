@@ -1,0 +1,158 @@
+"""The result of fitting one model to several curves of one sample (:func:`~skin_indent.fitting.fit_model`
+with a list of curves).
+
+One set of material and effect parameters, each curve with its own sphere radius,
+contact point and noise (:class:`~skin_indent.models.JointModel`): :class:`SampleFit` holds
+the fit (everything of :class:`~skin_indent.inverse.IdentificationResult`, the parameters
+shared and each curve's own, ``offset_mm[2]``) and, per curve, what a fit of one curve
+reports of its data: the radius, the points, the noise, the RMS and the misfit, and
+whether its residual is white. The numbers are those of the diagnosis's rung of the same
+model on the same curves (one fitter, :class:`~skin_indent.fitting.multistart.Fitter`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..inverse import IdentificationResult
+from ..measurement.scale import display_units
+from ..models.composed import at_physical_limit
+from ..runtime.json_io import jsonable
+from .knowledge import DETERMINED_BY
+from .multistart import evidence
+from .scale_checks import MISFIT_FLAG, contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
+
+
+@dataclass(frozen=True, eq=False)
+class SampleFit(IdentificationResult):
+    """A model fitted to several curves of one sample.
+
+    Attributes
+    ----------
+    model : str
+        ``neo-hooke`` plus ``+effect`` for each effect.
+    curves : list of dict
+        Per curve, in input order: ``data`` (its source), ``n_points``, ``radius_mm``,
+        ``radius_source``, ``noise_mN``, ``noise_source``, ``rms_mN``, ``misfit`` (RMS over
+        the noise), ``white``, ``contact_mode``, ``contact_point_mm`` and its sd (None
+        where the curve starts in contact), ``baseline_mN``.
+    prepared : list of PreparedCurve
+    prediction_mN : list of ndarray
+        The model's force at each curve's points (mN).
+    flags : tuple of str
+        Why the numbers may not be trusted (as :class:`~skin_indent.fitting.CurveFit`'s).
+    notes : list of str
+    priors : dict
+        Per parameter given a prior: prior, posterior, how much the data narrowed it.
+    error_model : dict
+        How the chi-square and BIC weigh each point (each curve's noise, the model error).
+    provenance : dict
+    """
+
+    model: str = "neo-hooke"
+    curves: list = field(default_factory=list)
+    prepared: list = field(default_factory=list)
+    prediction_mN: list = field(default_factory=list)
+    flags: tuple = ()
+    notes: list = field(default_factory=list)
+    priors: dict = field(default_factory=dict)
+    error_model: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def trusted(self) -> bool:
+        """Converged and no flag."""
+        return self.success and not self.flags
+
+    @property
+    def rms_of_curves(self) -> list[float]:
+        """Each curve's RMS residual (mN), in input order."""
+        return [c["rms_mN"] for c in self.curves]
+
+    def to_dict(self) -> dict:
+        out = super().to_dict()
+        out.update({"model": self.model, "rms_mN": self.rms_of_curves, "rms_all_mN": self.rms_mN,
+                    "curves": [dict(c) for c in self.curves], "flags": list(self.flags), "notes": list(self.notes),
+                    "priors": dict(self.priors), "error_model": dict(self.error_model),
+                    "provenance": dict(self.provenance)})
+        return jsonable(out)
+
+    def report(self, digits: int = 5, units=None) -> str:
+        """Readable summary: the curves, the parameters (shared, then each curve's own), each curve's
+        misfit, what the user knew, flags and notes; in the units of the first curve's scale."""
+        u = units or display_units(self.curves[0]["radius_mm"])
+        L, F = u.length, u.force
+        lines = [f"model: {self.model}, fitted to {len(self.curves)} curves of one sample (the material shared, each "
+                 "curve its own sphere, contact point and noise)"]
+        for k, c in enumerate(self.curves, 1):
+            contact = ("contact at recorded depth 0 (starts in contact)" if c["contact_point_std_mm"] is None
+                       and c["contact_mode"] == "origin" else
+                       f"contact point {c['contact_point_mm'] * u.per_mm:.6g} {L} (offset_mm[{k}])")
+            lines.append(f"curve {k}: {c['data']} ({c['n_points']} points), sphere R = {c['radius_mm'] * u.per_mm:g} "
+                         f"{L} ({c['radius_source']}); {contact}")
+        lines.append(super().report(digits, units=u))
+        for k, c in enumerate(self.curves, 1):
+            lines.append(f"quality of curve {k}: RMS {c['rms_mN'] * u.per_mN:.3g} {F} = {c['misfit']:.2g} x its noise "
+                         f"{c['noise_mN'] * u.per_mN:.3g} {F} ({c['noise_source']}); residual "
+                         f"{'white' if c['white'] else 'structured'}")
+        if self.error_model:
+            lines.append(f"error model: each point weighed by sqrt(noise^2 + ({self.error_model['model_error']:g} F)^2), "
+                         "the noise of its own curve and the forward model's relative error")
+        lines.extend(f"flag: {f}" for f in self.flags)
+        lines.extend(f"note: {n}" for n in self.notes)
+        return "\n".join(lines)
+
+    __str__ = report
+
+
+def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
+    """The :class:`SampleFit` of a rung fitted to several curves: the numbers the diagnosis's ladder
+    shows for that model, with each curve's data treatment, misfit and the flags."""
+    flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
+             for name in rung.at_bounds if not _physical(rung, name)]
+    flags += modulus_flags(rung.parameters.get("E_kPa", math.nan))
+    curves, predictions = [], []
+    for (k, c, noise, sl, params), white in zip(fitter.parts(rung), rung.curve_white):
+        r = np.asarray(rung.residuals_mN)[sl]
+        rms = float(np.sqrt(np.mean(r**2)))
+        contact = float(params.get("offset_mm", c.contact_guess_mm if c.contact_mode != "origin" else 0.0))
+        name = f"offset_mm[{k + 1}]"
+        sd = rung.std.get(name)
+        curves.append({"data": c.source, "n_points": c.n, "radius_mm": float(c.radius_mm),
+                       "radius_source": c.radius_source, "noise_mN": float(noise), "noise_source": noise_sources[k],
+                       "rms_mN": rms, "misfit": rms / noise, "white": bool(white), "contact_mode": c.contact_mode,
+                       "contact_point_mm": contact, "contact_point_std_mm": None if sd is None else float(sd),
+                       "baseline_mN": c.baseline_mN})
+        predictions.append(np.asarray(rung.prediction_mN)[sl])
+        where = f"curve {k + 1} ({c.source}): "
+        if rms / noise > MISFIT_FLAG:
+            flags.append(f"{where}misfit {rms / noise:.3g} x the noise: the model does not describe this curve and "
+                         "the parameters are not to be trusted")
+        flags += depth_ratio_flags(float((np.max(c.depth_mm) - contact) / c.radius_mm), float(c.radius_mm), where)
+    n_contact = sum(contact_points(c, cv["contact_point_mm"]) for c, cv in zip(fitter.curves, curves))
+    flags += points_flags(n_contact, int(rung.n_free))
+    flags += undetermined_flags(rung.parameters, rung.std, list(rung.std), rung.at_bounds)
+    for name, s in rung.priors.items():
+        if s["in_tension"]:
+            flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
+                         f"({s['tension_sd']:.1f} combined sd apart)")
+    notes = [f"curve {k + 1} ({c.source}): {n}" for k, c in enumerate(fitter.curves) for n in c.notes]
+    notes += [f"{name} held at {v:g}" for name, v in fitter.fixed.items() if name in rung.parameters]
+    for name, s in rung.priors.items():
+        notes.append(f"{name}: prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g}, posterior {s['posterior']:.4g} "
+                     f"+- {s['posterior_sd']:.2g} (sd x {s['narrowed']:.2f}: {DETERMINED_BY[s['determined_by']]})")
+    n, k = fitter.data.n, rung.n_free
+    aic, bic = evidence(rung.chi2_weighted, k, n)
+    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
+    base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
+    return SampleFit(**base, model=rung.model, curves=curves, prepared=list(fitter.curves), prediction_mN=predictions,
+                     flags=tuple(dict.fromkeys(flags)), notes=notes, priors=dict(rung.priors),
+                     error_model=fitter.error_model())
+
+
+def _physical(rung, name: str) -> bool:
+    return at_physical_limit(rung.bound_model, rung.x, name)
