@@ -5,6 +5,22 @@
     python benchmarks/diagnose.py --cached     # cached only (needs an earlier run's cache)
     python benchmarks/diagnose.py --ladder     # issue 13: the automatic ladder of the forearm-like
                                                # curve and one finite-element fit of two layers
+    python benchmarks/diagnose.py --speed      # issue 29: the forearm-like diagnosis from an empty cache,
+                                               # with its surfaces cached and run again, in forward curves
+    python benchmarks/diagnose.py --speed --joint  # and the forearm-like pair diagnosed together (--sample)
+
+``--speed`` (issue 29) runs ``skin-indent diagnose`` on the bundled forearm-like curve
+(``--json``, default options, ``SKIN_INDENT_CACHE`` a fresh folder) three times, each a fresh
+process: (a) from an empty cache, (b) with its surfaces cached (the cache of (a) without its
+``fe-runs`` folder: the single runs of the fits in the loop, the identifiability checks and the
+suggested measurement), (c) the same command again. Each is reported as wall time, in units of
+one 100-point forward curve on the default mesh timed in the same run (a whole process: Python
+start, imports and ``simulate(NeoHooke(10, 0.4), SphericalIndenter(6.22), 0.6, 100)``, median of
+the rounds timed before (a), between and after (c); its in-process time too), and with the
+number of finite-element runs made (new run files in the cache: surface runs listed done in the
+run manifests, single runs in ``fe-runs``, two per friction check in ``checks``). The three JSON
+outputs must agree (verdict, ladder, every number). Targets: (a) <= 80, (b) <= 25, (c) <= 3
+forward curves.
 
 ``--ladder`` (issue 13) times, on the bundled forearm-like curve (100 loading points, three
 layers from an independent FE code): (a) one fit of two layers with the finite-element model in
@@ -126,14 +142,147 @@ def run_child(cache: Path) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+UNIT = ("import time; t = time.perf_counter(); from skin_indent.simulate import simulate; "
+        "from skin_indent.mechanics import NeoHooke, SphericalIndenter; "
+        "simulate(NeoHooke(10.0, 0.4), SphericalIndenter(6.22), 0.6, 100); t1 = time.perf_counter(); "
+        "simulate(NeoHooke(10.0, 0.4), SphericalIndenter(6.22), 0.6, 100); print(time.perf_counter() - t1)")
+#: issue 29's targets, in forward curves: (a) from an empty cache, (b) surfaces cached, (c) the same command again
+TARGETS = {"empty cache": 80.0, "surfaces cached": 25.0, "run again": 3.0}
+
+
+def _env(cache: Path | None = None) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    if cache is not None:
+        env["SKIN_INDENT_CACHE"] = str(cache)
+    return env
+
+
+def forward_units(rounds: int = 3) -> tuple[list, list]:
+    """Wall times (s) of whole processes making one 100-point curve on the default mesh, and the
+    in-process time of a second curve in each."""
+    whole, inside = [], []
+    for _ in range(rounds):
+        t = time.perf_counter()
+        out = subprocess.run([sys.executable, "-c", UNIT], env=_env(), capture_output=True, text=True, check=True)
+        whole.append(time.perf_counter() - t)
+        inside.append(float(out.stdout.strip().splitlines()[-1]))
+    return whole, inside
+
+
+def count_runs(cache: Path) -> int:
+    """Finite-element runs kept in a cache folder (surface runs done, single runs, two per friction check)."""
+    n = 0
+    for manifest in (cache / "runs").glob("*/manifest.json"):
+        n += sum(1 for e in json.loads(manifest.read_text())["runs"].values() if e.get("status") == "done")
+    n += sum(1 for _ in (cache / "fe-runs").glob("*/*.npz"))
+    n += 2 * sum(1 for _ in (cache / "checks").glob("*.npz"))
+    return n
+
+
+def diagnose_command(cache: Path, *data: Path) -> dict:
+    """``skin-indent diagnose DATA --json`` in a fresh process (several DATA: ``--sample``, one sample
+    diagnosed together): wall time (s), runs made, its JSON."""
+    before = count_runs(cache)
+    t = time.perf_counter()
+    out = subprocess.run([sys.executable, "-m", "skin_indent", "diagnose", *map(str, data), "--json", "-q"]
+                         + (["--sample"] if len(data) > 1 else []), env=_env(cache), capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if out.returncode != 0:
+        raise RuntimeError(f"diagnose failed ({out.returncode}): {out.stderr.strip()[-2000:]}")
+    result = json.loads(out.stdout)
+    return {"wall_s": wall, "fe_runs": count_runs(cache) - before, "verdict": result["verdict"],
+            "ladder": [r["model"] for r in result["ladder"]], "json": result}
+
+
+def _same_numbers(a: dict, b: dict) -> bool:
+    a, b = dict(a), dict(b)
+    a.pop("provenance", None), b.pop("provenance", None)
+    return json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+
+
+def speed(cache: Path, rounds: int, joint: bool = False) -> dict:
+    """Issue 29: (a) from an empty cache, (b) with the surfaces cached, (c) the same command again;
+    with ``joint``, also the forearm-like curve and the same skin at R = 3.11 mm diagnosed together
+    (``--sample``) from an empty cache and run again, against the single curve's (a) and (c)."""
+    import shutil
+    import statistics
+
+    data = ROOT / "src" / "skin_indent" / "data" / "forearm_like.csv"  # skin_indent.data.bundled_path
+    result = {"date": _dt.datetime.now().isoformat(timespec="seconds"), "cpus": os.cpu_count(),
+              "load_start": os.getloadavg(), "data": data.name}
+    whole, inside = forward_units(rounds)
+    shutil.rmtree(cache, ignore_errors=True)
+    cache.mkdir(parents=True)
+    runs = {"empty cache": diagnose_command(cache, data)}
+    print(f"empty cache: {runs['empty cache']['wall_s']:.1f} s, {runs['empty cache']['fe_runs']} runs", flush=True)
+    shutil.rmtree(cache / "fe-runs", ignore_errors=True)  # (an older checkout has none)
+    w, i = forward_units(rounds)
+    whole += w
+    inside += i
+    runs["surfaces cached"] = diagnose_command(cache, data)
+    print(f"surfaces cached: {runs['surfaces cached']['wall_s']:.1f} s", flush=True)
+    runs["run again"] = diagnose_command(cache, data)
+    print(f"run again: {runs['run again']['wall_s']:.1f} s", flush=True)
+    if joint:
+        second = data.with_name("forearm_like_R3.11mm.csv")
+        pair = cache.with_name(cache.name + "_joint")
+        shutil.rmtree(pair, ignore_errors=True)
+        pair.mkdir(parents=True)
+        runs["joint, empty cache"] = diagnose_command(pair, data, second)
+        print(f"joint, empty cache: {runs['joint, empty cache']['wall_s']:.1f} s", flush=True)
+        runs["joint, run again"] = diagnose_command(pair, data, second)
+        print(f"joint, run again: {runs['joint, run again']['wall_s']:.1f} s", flush=True)
+    w, i = forward_units(rounds)
+    whole += w
+    inside += i
+    unit = statistics.median(whole)
+    result.update(unit_whole_process_s=whole, unit_in_process_s=inside, unit_s=unit,
+                  unit_in_process_median_s=statistics.median(inside), load_end=os.getloadavg())
+    first = runs["empty cache"]["json"]
+    print(f"unit: one 100-point forward curve on the default mesh, whole process {unit:.2f} s (median of "
+          f"{len(whole)}; {min(whole):.2f}-{max(whole):.2f}), in process {statistics.median(inside):.2f} s; "
+          f"load average {result['load_start'][0]:.2f} -> {result['load_end'][0]:.2f}")
+    firsts = {"": first, "joint": runs.get("joint, empty cache", {}).get("json")}
+    for label, r in runs.items():
+        r["units"] = r["wall_s"] / unit
+        reference = firsts["joint" if label.startswith("joint") else ""]
+        r["same_as_empty_cache"] = _same_numbers(r["json"], reference) if "empty cache" not in label else True
+        if label.startswith("joint"):  # the joint target: at most twice the single curve's same command
+            single = runs["empty cache" if "empty" in label else "run again"]
+            r["ratio_to_single"] = r["wall_s"] / single["wall_s"]
+            target = f"<= 2x the single curve's: {r['ratio_to_single']:.2f}x, " + (
+                "met" if r["ratio_to_single"] <= 2.0 else "NOT met")
+        else:
+            target = f"target <= {TARGETS[label]:g}: " + ("met" if r["units"] <= TARGETS[label] else "NOT met")
+        print(f"{label:>18}: {r['wall_s']:7.1f} s = {r['units']:6.1f} forward curves ({target}), {r['fe_runs']} "
+              f"finite-element runs, verdict {r['verdict']}, ladder {' -> '.join(r['ladder'])}"
+              + ("" if r["same_as_empty_cache"] else "; NOT the same numbers as from an empty cache"))
+    for r in runs.values():
+        r.pop("json", None)
+    result["runs"] = runs
+    out = HERE / "results" / "diagnose_speed.json"
+    out.parent.mkdir(exist_ok=True)
+    out.write_text(json.dumps(result, indent=1, default=float))
+    print(f"written: {out}")
+    return result
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument("--cached", action="store_true", help="skip the build from nothing")
     parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "skin_indent_bench_diagnose")
     parser.add_argument("--ladder", action="store_true", help="issue 13: the automatic ladder and a finite-element fit")
+    parser.add_argument("--speed", action="store_true",
+                        help="issue 29: empty cache, surfaces cached, the same command again, in forward curves")
+    parser.add_argument("--joint", action="store_true",
+                        help="with --speed: also the forearm-like pair (R = 6.22 and 3.11 mm) diagnosed together")
+    parser.add_argument("--rounds", type=int, default=3, help="forward curves timed before, between and after (--speed)")
     args = parser.parse_args()
     if args.ladder:
         ladder(args.cache.with_name(args.cache.name + "_ladder"))
+        return
+    if args.speed:
+        speed(args.cache.with_name(args.cache.name + "_speed"), args.rounds, joint=args.joint)
         return
     result = {"date": _dt.datetime.now().isoformat(timespec="seconds"), "cpus": os.cpu_count(),
               "load_start": os.getloadavg(), "data": DATA.name}

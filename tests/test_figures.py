@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _data import DATA
 
 from skin_indent.data import bundled_path
 from skin_indent.measurement import load_csv, prepare

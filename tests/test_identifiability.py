@@ -233,6 +233,7 @@ def test_alternatives_side_by_side_start_their_workers_in_the_main_thread(shallo
     from skin_indent.runtime.context import Context
 
     fitter, rung = shallow.fitter, shallow.current
+    monkeypatch.setattr(fitter, "context", Context(workers=1))
     serial = idf.assess(fitter, rung)
     started = []
     real = FECore.start_workers

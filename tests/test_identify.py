@@ -8,11 +8,10 @@ import sys
 import numpy as np
 import pytest
 
-from skin_indent.runtime.context import Context
-from skin_indent.fitting import identify, surface_for
+from skin_indent.fitting import identify
 from skin_indent.measurement import prepare
 from skin_indent.inverse import fit_ekf, fit_least_squares, format_table, run_blind_tests
-from skin_indent.measurement import load_csv, measurement_from_arrays
+from skin_indent.measurement import measurement_from_arrays
 from skin_indent.mechanics import NeoHooke, SphericalIndenter
 from skin_indent.response_surface import SurfaceGrid
 from skin_indent.simulate import simulate

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from skin_indent.response_surface import (DEPTH_INTERPS, METHODS, SCALINGS, ResponseSurface, SurfaceGrid,
+from skin_indent.response_surface import (METHODS, SCALINGS, ResponseSurface, SurfaceGrid,
                                           parse_range, settings_hash)
 
 R_MM = 6.22

@@ -84,6 +84,10 @@ class ForceDepthCurve:
         layers top first, then the substrate unless rigid) and ``name`` a field of
         its dataclass (``"E_kPa"``, ``"nu"``, ``"C20_kPa"``). See
         :mod:`skin_indent.mechanics.sensitivity`.
+    solved_fields : list of ndarray or None
+        With ``simulate(..., keep_fields=True)``: the converged displacement field (mm)
+        at every solved depth, the warm start of a run of a nearby sample on the same mesh
+        (``initial_fields``).
     """
 
     depth_mm: np.ndarray
@@ -97,6 +101,7 @@ class ForceDepthCurve:
     _state: tuple | None = field(default=None, repr=False)
     time_s: np.ndarray | None = None
     sensitivities: dict | None = None
+    solved_fields: list | None = None
 
     def model_description(self) -> dict:
         """What was simulated: the law, its parameters, the sphere radius and the mesh (JSON-safe)."""
@@ -227,7 +232,8 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
              *, mesh=DEFAULT_MESH, increments: int | None = None, solve_at_outputs: bool = False,
              protocol: Protocol | None = None, offset_mm: float = 0.0, penalty: float = PENALTY,
              rtol: float = RTOL, keep_state: bool = False, progress=None,
-             contact: ContactLaw | None = None, sensitivities: bool = False) -> ForceDepthCurve:
+             contact: ContactLaw | None = None, sensitivities: bool = False, initial_fields=None,
+             keep_fields: bool = False) -> ForceDepthCurve:
     """Simulate the indentation of a half-space by a rigid sphere.
 
     Parameters
@@ -282,6 +288,13 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         discrete model (contact penalty scaling and force interpolation included);
         they are as accurate as the converged states, so use a tight ``rtol``
         (e.g. 1e-10) when they matter.
+    initial_fields : sequence, optional
+        A warm start: a displacement field (or None) per solved depth, the first iterate of
+        Newton's method there instead of the predictor (e.g. ``solved_fields`` of a nearby
+        sample on a mesh of the same topology; the solution is the same to ``rtol``, in a
+        fraction of the iterations). Path-independent laws without a protocol or an offset.
+    keep_fields : bool
+        Keep the converged field at every solved depth in :attr:`ForceDepthCurve.solved_fields`.
 
     Returns
     -------
@@ -301,6 +314,8 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         raise ValueError(f"offset must be a finite number in mm, got {offset_mm!r}")
     if sensitivities:
         check_differentiable(material, contact)
+    if (initial_fields is not None or keep_fields) and (offset_mm != 0.0 or protocol is not None):
+        raise ValueError("initial_fields and keep_fields need a path-independent run without protocol or offset")
     if offset_mm != 0.0:
         return _simulate_with_offset(material, indenter, depth_mm, points, float(offset_mm), protocol, mesh=mesh,
                                      increments=increments, solve_at_outputs=solve_at_outputs, penalty=penalty,
@@ -329,7 +344,16 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
             solved = np.union1d(solved, material.squeeze_depths_mm(depths[-1]))
     cb = (lambda i: progress(i, solved.size)) if progress else None
     sens = _direct_sensitivity(problem, material, solved.size) if sensitivities else None
-    forces, u, report = problem.solve(solved, progress=cb, on_converged=sens)
+    fields = [] if keep_fields else None
+    hook = sens
+    if fields is not None:
+        def hook(i, u, depth):
+            fields.append(u.copy())
+            if sens is not None:
+                sens(i, u, depth)
+    if initial_fields is not None and len(initial_fields) != solved.size:
+        raise ValueError(f"initial_fields must hold one field (or None) per solved depth ({solved.size})")
+    forces, u, report = problem.solve(solved, progress=cb, on_converged=hook, initial=initial_fields)
     if solved is depths:
         out = forces
     else:
@@ -337,7 +361,8 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
         # accurate down to the smallest depths; the result is linear in the forces.
         out = not_a_knot_spline(solved, forces / solved**1.5, depths) * depths**1.5
     state = (problem, u, float(solved[-1])) if keep_state else None
-    curve = ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state)
+    curve = ForceDepthCurve(depths, out, material, indenter, imesh.name, report, solved, forces, state,
+                            solved_fields=fields)
     if sens is not None:  # the output forces are linear in the solved ones: so are their derivatives
         curve.sensitivities = {key: d if solved is depths else
                                not_a_knot_spline(solved, d / solved**1.5, depths) * depths**1.5

@@ -40,6 +40,8 @@ from ..inverse.result import jacobian_covariance
 from ..models import ComposedModel, JointModel
 from ..fitting.multistart import MODEL_ERROR
 from ..models.fe_core import FECore
+from ..response_surface import RunCache
+from ..runtime.executors import available_cpus
 
 #: a parameter is determined when its standard deviation is below this fraction of its value
 DETERMINED = 0.5
@@ -168,7 +170,8 @@ def _widen(bounds, x) -> tuple:
     return np.minimum(lo, x), np.maximum(hi, x)
 
 
-def alternative_model(rung, h_mm, radius_factor: float, depth_factor: float, *, mesh: str, workers=None):
+def alternative_model(rung, h_mm, radius_factor: float, depth_factor: float, *, mesh: str, workers=None,
+                      run_cache=None):
     """The rung's model bound to an alternative measurement, with the finite-element model as its core.
 
     Parameters
@@ -183,6 +186,8 @@ def alternative_model(rung, h_mm, radius_factor: float, depth_factor: float, *, 
         Mesh family member of the runs (the diagnosis' ``fitter.mesh``).
     workers : int, optional
         Local processes for the finite-difference runs.
+    run_cache : RunCache, optional
+        Where the runs are kept (:class:`~skin_indent.response_surface.RunCache`).
 
     Returns
     -------
@@ -199,7 +204,8 @@ def alternative_model(rung, h_mm, radius_factor: float, depth_factor: float, *, 
     reach = depth_factor * float(np.max(h_mm))
     E, nu = float(x[0]), float(x[1])
     core = FECore([e for e in model.effects if e.stage == ELASTIC], radius_mm=float(data.radius_mm),
-                  max_depth_mm=reach, e_star_kPa=E / (1.0 - nu**2), mesh=mesh, workers=workers)
+                  max_depth_mm=reach, e_star_kPa=E / (1.0 - nu**2), mesh=mesh, workers=workers,
+                  run_cache=run_cache)
     n_core = len(core.parameter_names)
     core.bounds = _widen(core.bounds, x[:n_core])
     new = ComposedModel(core, model.effects, data)
@@ -312,8 +318,10 @@ def _bind(fitter, rung, radius_factor: float, depth_factor: float) -> tuple:
     h = _indentation(model, x)
     if not np.any(h > 0):
         raise ValueError("no recorded point is in contact in the fitted model")
-    workers = getattr(getattr(fitter, "context", None), "workers", None)
-    return alternative_model(rung, h, radius_factor, depth_factor, mesh=fitter.mesh, workers=workers), h
+    context = getattr(fitter, "context", None)
+    cache = None if context is None else RunCache(context.cache_dir)  # the runs kept with the fits'
+    return alternative_model(rung, h, radius_factor, depth_factor, mesh=fitter.mesh,
+                             workers=getattr(context, "workers", None), run_cache=cache), h
 
 
 def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor: float = 1.0, *,
@@ -399,7 +407,9 @@ def assess(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
     except Exception as err:  # noqa: BLE001 - nothing to assess: no alternative is suggested
         return [Prediction(a, a.short, None, f"{type(err).__name__}: {err}") for a in alternatives]
     radius = float(model.data.radius_mm)
-    workers = getattr(getattr(fitter, "context", None), "workers", None) or 1
+    workers = getattr(getattr(fitter, "context", None), "workers", None)
+    if workers is None:  # the context's default, as the cores' own: at most 2 local processes
+        workers = min(2, available_cpus())
     concurrent = workers > 1 and len(alternatives) > 1
 
     def failed(a, err):

@@ -54,6 +54,7 @@ from ..measurement.preparation import MAX_DEPTH_RATIO
 from ..models.joint import split_name
 from ..models import ComposedModel
 from ..models.fe_core import FECore
+from ..response_surface.run_cache import RunCache
 from ..runtime.executors import make_executor
 
 #: duration (s) of the hold a diagnosis weighs where an explanation acts along the time history
@@ -292,7 +293,8 @@ def _widen(bounds, x) -> tuple:
     return np.minimum(lo, x), np.maximum(hi, x)
 
 
-def predicted_force(effects: tuple, theta: dict, history, mesh: str = "coarse", jacobian: bool = False) -> tuple:
+def predicted_force(effects: tuple, theta: dict, history, mesh: str = "coarse", jacobian: bool = False,
+                    cache_dir=None) -> tuple:
     """The force of a fitted model on the points of a measurement, by one finite-element run.
 
     The one function through which every finite-element run of a planned measurement
@@ -317,6 +319,11 @@ def predicted_force(effects: tuple, theta: dict, history, mesh: str = "coarse", 
         Mesh family member of the run.
     jacobian : bool
         Also return dF/dtheta.
+    cache_dir : path, optional
+        Where the run is read from or kept (the run cache,
+        :class:`~skin_indent.response_surface.RunCache`, of this cache folder; default
+        ``$SKIN_INDENT_CACHE`` or ``~/.cache/skin_indent``): the same prediction asked
+        again, by this diagnosis or a later one, solves nothing.
 
     Returns
     -------
@@ -337,7 +344,7 @@ def predicted_force(effects: tuple, theta: dict, history, mesh: str = "coarse", 
     h = np.asarray(history.depth_mm, dtype=float)
     E, nu = float(theta["E_kPa"]), float(theta["nu"])
     core = FECore(objs, radius_mm=float(history.radius_mm), max_depth_mm=float(np.max(h)),
-                  e_star_kPa=E / (1.0 - nu**2), mesh=mesh, workers=1)
+                  e_star_kPa=E / (1.0 - nu**2), mesh=mesh, workers=1, run_cache=RunCache(cache_dir))
     try:
         try:
             xc = np.array([float(theta[n]) for n in core.parameter_names])
@@ -396,8 +403,8 @@ def predict(tasks: dict, *, context=None) -> dict:
     tasks : dict
         ``{tag: (effects, theta, history, mesh, jacobian)}``.
     context : Context, optional
-        Where the runs go (its ``workers``, ``client`` or ``scheduler``); default the
-        available cores.
+        Where the runs go (its ``workers``, ``client`` or ``scheduler``; default the
+        available cores) and are kept (its ``cache_dir``'s run cache).
 
     Returns
     -------
@@ -407,8 +414,10 @@ def predict(tasks: dict, *, context=None) -> dict:
     out = {}
     if not tasks:
         return out
+    cache_dir = getattr(context, "cache_dir", None)
+    work = [(tag, (*args, cache_dir)) for tag, args in tasks.items()]
     with make_executor(tasks=len(tasks), **executor_options(context)) as executor:
-        for tag, value, error in executor.imap_unordered(predicted_force, list(tasks.items())):
+        for tag, value, error in executor.imap_unordered(predicted_force, work):
             out[tag] = error if error is not None else value
     return out
 

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..runtime.context import Context, context_of
-from ..response_surface import ResponseSurface, SurfaceGrid, default_settings, nice_depth
+from ..response_surface import ResponseSurface, RunCache, SurfaceGrid, default_settings, nice_depth
 from ..effects import ELASTIC
 from ..effects import instances
 from ..models.effect_surface import EffectSurface
@@ -103,7 +103,8 @@ def elastic_core(effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: 
 
     With more than one elastic effect (two layers, layer and stiffening...) no surface
     combines them: the core is then a :class:`~skin_indent.models.fe_core.FECore`, the
-    finite-element model in the loop.
+    finite-element model in the loop, whose runs are kept in the run cache of the
+    context's cache folder (:class:`~skin_indent.response_surface.RunCache`).
     """
     elastic = [e for e in instances(effects) if e.stage == ELASTIC]
     context = context_of(context)
@@ -111,7 +112,7 @@ def elastic_core(effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: 
     if len(elastic) > 1:  # no surface combines them: the finite-element model in the loop
 
         return FECore(elastic, radius_mm=radius_mm, max_depth_mm=max_depth_mm, e_star_kPa=e_star_kPa, mesh=mesh,
-                      workers=context.workers)
+                      workers=context.workers, run_cache=RunCache(context.cache_dir))
     if not elastic:
         grid = curve_grid(e_star_kPa, 1.25 * max_depth_mm, BASE_NU)
         return ResponseSurface.load_or_build(grid, default_settings(radius_mm=radius_mm, mesh=mesh), **kw)

@@ -120,7 +120,9 @@ def analyse_residuals(residuals, noise_mN: float, n_parameters: int = 0, *, alph
         (about 12% for 100 points, i.e. ~35 degrees of freedom). Default: the
         noise level is known (chi-square test).
     """
-    from scipy import stats
+    # the survival functions of scipy.stats.chi2, f and norm are these scipy.special functions
+    # (the same numbers), without importing scipy.stats (0.4-0.8 s of a process's start)
+    from scipy.special import chdtrc, fdtrc, ndtr
 
     r = np.asarray(residuals, dtype=float)
     if r.ndim != 1 or r.size < 5 or not np.all(np.isfinite(r)):
@@ -131,9 +133,9 @@ def analyse_residuals(residuals, noise_mN: float, n_parameters: int = 0, *, alph
     dof = max(n - int(n_parameters), 1)
     chi2 = float(r @ r) / noise_mN**2
     if noise_dof is None:
-        chi2_p = float(stats.chi2.sf(chi2, dof))
+        chi2_p = float(chdtrc(dof, chi2))  # chi2.sf(chi2, dof)
     else:
-        chi2_p = float(stats.f.sf(chi2 / dof, dof, max(float(noise_dof), 1.0)))
+        chi2_p = float(fdtrc(dof, max(float(noise_dof), 1.0), chi2 / dof))  # f.sf(chi2 / dof, dof, noise_dof)
     # runs test on signs (zeros dropped)
     s = np.sign(r[r != 0])
     n_pos, n_neg = int(np.sum(s > 0)), int(np.sum(s < 0))
@@ -143,13 +145,13 @@ def analyse_residuals(residuals, noise_mN: float, n_parameters: int = 0, *, alph
         expected = 1 + 2 * n_pos * n_neg / m
         var = 2 * n_pos * n_neg * (2 * n_pos * n_neg - m) / (m**2 * (m - 1))
         z = (runs - expected) / np.sqrt(var) if var > 0 else 0.0
-        runs_p = float(2 * stats.norm.sf(abs(z)))
+        runs_p = float(2 * ndtr(-abs(z)))  # 2 norm.sf(|z|)
     else:  # all of one sign: as structured as it gets
         expected, runs_p = 1 + m / 2, 0.0
     lags = max_lag or max(1, min(10, n // 5))
     acf = _autocorrelation(r, lags)
     q = n * (n + 2) * float(np.sum(acf**2 / (n - np.arange(1, lags + 1))))
-    lb_p = float(stats.chi2.sf(q, lags))
+    lb_p = float(chdtrc(lags, q))  # chi2.sf(q, lags)
     white = chi2_p > alpha and runs_p > alpha and lb_p > alpha
     return ResidualAnalysis(n, float(noise_mN), float(np.sqrt(r @ r / n)), chi2, dof, chi2_p, runs, float(expected),
                             runs_p, float(acf[0]), lb_p, bool(white), effective_sample_size(r), alpha)

@@ -502,7 +502,8 @@ class IndentationProblem:
             return u + (u_prev - u) * ((h_try - h_cur) / (h_prev - h_cur))
         return u.copy()
 
-    def solve(self, depths_mm, progress=None, predictor: str = "auto", times_s=None, on_converged=None):
+    def solve(self, depths_mm, progress=None, predictor: str = "auto", times_s=None, on_converged=None,
+              initial=None):
         """Move the sphere through ``depths_mm`` and return the forces.
 
         Parameters
@@ -527,6 +528,14 @@ class IndentationProblem:
             field ``u`` (mm, not to be modified) at each requested depth (mm), before
             ``progress``; used for the parameter sensitivities
             (:mod:`.sensitivity`).
+        initial : sequence, optional
+            A first iterate (a displacement field, mm) per requested depth, or None where
+            there is none: a warm start, e.g. the converged states of a nearby sample on a
+            mesh of the same topology, used instead of the predictor when the depth is
+            reached in one step (a step that fails from it is cut and predicted as usual).
+            Only for path-independent problems (elastic laws, no friction): the state at a
+            depth is then a function of that depth alone, and the solution is the one of
+            the predictor's path to the Newton tolerance.
 
         Returns
         -------
@@ -538,6 +547,13 @@ class IndentationProblem:
         """
         depths = np.asarray(depths_mm, dtype=float)
         times = self._check_times(times_s, depths)
+        if initial is not None:
+            if not self.solid.path_independent or self.contact.law.frictional:
+                raise ValueError("a warm start (initial) needs a path-independent problem (elastic, no friction)")
+            if len(initial) != depths.size:
+                raise ValueError(f"initial must hold one field (or None) per depth: {len(initial)} for {depths.size}")
+            if any(u0 is not None and np.shape(u0) != (self.n_dofs,) for u0 in initial):
+                raise ValueError(f"initial fields must have {self.n_dofs} values (this mesh's degrees of freedom)")
         if predictor not in ("auto", "linear", "similarity"):
             raise ValueError(f"predictor must be 'auto', 'linear' or 'similarity', got {predictor!r}")
         # frictionless, non-adhesive contact: the first increment from the undeformed
@@ -570,6 +586,7 @@ class IndentationProblem:
         kept = None  # the reduced depth step the last target ended with (mm), if any
         for i, target in enumerate(depths):
             cuts, span = 0, target - h_cur
+            warm = None if initial is None else initial[i]  # tried once: a step that fails from it is cut
             if adaptive and kept is not None and span != 0:  # start from that step, not the whole range
                 cuts = min(max(math.ceil(math.log2(abs(span) / kept) - 1e-9), 0), self.max_cuts)
             while True:
@@ -581,7 +598,10 @@ class IndentationProblem:
                     t_try = t_cur + (times[i + 1] - t_cur) / 2**cuts
                 else:  # exactly the target (h + (target - h) may differ from it in the last bit)
                     h_try, t_try = target, times[i + 1]
-                if start and u_prev is None and h_cur == 0 and h_try > 0 and not np.any(u):
+                if warm is not None and h_try == target:
+                    trial = np.array(warm, dtype=float)  # a warm start (a copy: Newton updates it)
+                    warm = None
+                elif start and u_prev is None and h_cur == 0 and h_try > 0 and not np.any(u):
                     trial = hertz_start(self, h_try)
                 else:
                     trial = self._predict(u, u_prev, h_prev, h_cur, h_try, similarity)

@@ -36,7 +36,7 @@ from ..response_surface import SurfaceGrid, default_cache_dir, default_settings
 from ..runtime.executors import Executor
 from ..effects import ELASTIC, EffectAxis, effect
 from ..effects import Model
-from ..response_surface import ResponseSurface
+from ..response_surface import NodeForces, ResponseSurface
 from ..response_surface import RunStore
 from ..response_surface import resolve_model, run_key, run_task
 from ..runtime.executors import make_executor
@@ -104,6 +104,8 @@ class EffectSurface:
         self.bounds = (np.array(lo, float), np.array(hi, float))
         self.depth_range = first.depth_range
         self._last = None
+        self._stack = None
+        self._node_coords = None
         self.failures = {}
         for idx in itertools.product(*(range(len(a.nodes)) for a in self.axes)):
             s = surfaces[idx]
@@ -243,12 +245,9 @@ class EffectSurface:
         key = h.tobytes()
         if self._last is not None and self._last[0] == key:
             return self._last[1]
-        E0 = float(self.grid.E_kPa[0])
-        nus = self.grid.nu
-        V = np.empty(self.surfaces.shape + (nus.size,) + h.shape)
-        for idx in np.ndindex(self.surfaces.shape):
-            for j, nu in enumerate(nus):  # at a node the surface returns its run (no interpolation in nu)
-                V[idx + (j,)] = self.surfaces[idx].force(h, (E0, float(nu))) / E0
+        if self._stack is None:  # at a node: its runs, interpolated in depth only, all at once
+            self._stack = NodeForces(list(self.surfaces.flat))
+        V = self._stack(h).reshape(self.surfaces.shape + (self.grid.nu.size,) + h.shape)
         positive = bool(np.all(V > 0))
         out = (np.log(V) if positive else V, positive)
         self._last = (key, out)
@@ -259,15 +258,21 @@ class EffectSurface:
 
         Tensor-product splines of log f over the effect axes and over nu in the
         coordinate ``log(0.5 - nu)``: a layer confined by a stiff base stiffens like
-        ``1 / (1 - 2 nu)`` towards incompressibility, a straight line there.
+        ``1 / (1 - 2 nu)`` towards incompressibility, a straight line there. The spline of
+        each axis is linear in the node values, so the interpolant is one weighted sum of
+        the node values: weights the outer product of every axis' spline weights.
         """
         h = np.asarray(depth_mm, dtype=float)
         V, positive = self._node_forces(h)
-        for a, x in zip(self.axes, unit_values):
-            V = np.tensordot(_spline_weights(a.node_coords, a.coords(x)), V, axes=(0, 0))
-        xs = np.log(0.5 - self.grid.nu)
-        V = np.tensordot(_spline_weights(xs[::-1], np.log(0.5 - nu)), V[::-1], axes=(0, 0))
-        return np.exp(V) if positive else V
+        if self._node_coords is None:
+            self._node_coords = [tuple(float(v) for v in a.node_coords) for a in self.axes]
+            self._node_coords.append(tuple(float(v) for v in np.log(0.5 - self.grid.nu)[::-1]))
+        w = np.ones(1)
+        for a, nodes, x in zip(self.axes, self._node_coords, unit_values):
+            w = np.multiply.outer(w, _weight_spline(nodes)(float(a.coords(x)))).ravel()
+        w = np.multiply.outer(w, _weight_spline(self._node_coords[-1])(float(np.log(0.5 - nu)))[::-1]).ravel()
+        out = (w @ V.reshape(w.size, -1)).reshape(h.shape)
+        return np.exp(out) if positive else out
 
     def force(self, depth_mm, theta) -> np.ndarray:
         """Force (mN) at the depths (mm) for ``theta = (E_kPa, nu, effect parameters...)``."""
@@ -291,17 +296,24 @@ class EffectSurface:
         return J
 
 
+@functools.lru_cache(maxsize=256)
+def _weight_spline(nodes: tuple):
+    """The interpolating spline of the identity at ``nodes`` (cubic, not-a-knot, with 4 or more nodes;
+    else of degree n - 1): its value at x holds the weight of every node."""
+    from scipy.interpolate import make_interp_spline  # lazy: scipy.interpolate is slow to import
+
+    x = np.asarray(nodes, dtype=float)
+    return make_interp_spline(x, np.eye(x.size), k=min(3, x.size - 1), axis=0)
+
+
 def _spline_weights(nodes, x) -> np.ndarray:
     """Weights w with s(x) = sum_j w_j v_j for the interpolating spline s of any values v_j at ``nodes``.
 
     The spline (cubic, not-a-knot, with 4 or more nodes; else of degree n - 1) is linear in
     the values, so interpolating the identity gives its weights at ``x``: one small spline
-    instead of one over every depth and every other node.
+    instead of one over every depth and every other node, made once per set of nodes.
     """
-    from scipy.interpolate import make_interp_spline  # lazy: scipy.interpolate is slow to import
-
-    nodes = np.asarray(nodes, dtype=float)
-    return make_interp_spline(nodes, np.eye(nodes.size), k=min(3, nodes.size - 1), axis=0)(float(x))
+    return _weight_spline(tuple(float(v) for v in np.asarray(nodes, dtype=float)))(float(x))
 
 
 class _NeedsRuns(Exception):

@@ -60,6 +60,11 @@ one cache. A run that fails (``ConvergenceError``, bad values, a worker that die
 listed with its reason, its column is NaN, interpolation that needs it says so, and
 the next build retries it. :func:`run_batch` runs other batches of forward runs the
 same way.
+
+Single runs outside the surfaces (the finite-element model in the loop of a fit, the
+checks and suggestions of a diagnosis) are kept by a :class:`RunCache`
+(:mod:`~skin_indent.response_surface.run_cache`), one file per run keyed by everything
+that determines it, so that the same diagnosis run again solves nothing.
 """
 
 
@@ -68,13 +73,15 @@ from ..runtime.executors import (DASK_MISSING, DaskExecutor, Executor, InProcess
                          run_batch)
 from ._grid import NICE_DEPTHS, SurfaceGrid, nice_depth, parse_range
 from ._store import RunStore
-from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, ResponseSurface
+from .run_cache import RunCache, RunFailed
+from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, NodeForces, ResponseSurface
 
 __all__ = [
     "resolve_model", "run_key", "run_task",
     "NICE_DEPTHS", "nice_depth",
     "SurfaceGrid",
     "ResponseSurface",
+    "NodeForces",
     "parse_range",
     "default_settings",
     "default_unit_curve",
@@ -91,5 +98,7 @@ __all__ = [
     "make_executor",
     "run_batch",
     "RunStore",
+    "RunCache",
+    "RunFailed",
     "DASK_MISSING",
 ]

@@ -45,7 +45,7 @@ def run_key(settings: Mapping, depth_mm: np.ndarray) -> str:
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
 
 
-def _source_digest() -> str:
+def source_digest() -> str:
     """Digest of the forward-model sources, so that editing them invalidates caches."""
     root = Path(__file__).parent.parent  # the skin_indent package
     files = sorted([root / "simulate.py", *(root / "mechanics").rglob("*.py")])
@@ -74,7 +74,7 @@ def default_settings(radius_mm: float = 6.22, mesh: str = "medium") -> dict:
         "unit_curve": "skin_indent.simulate.fe_unit_curve",
         "radius_mm": float(radius_mm),
         "mesh": mesh,
-        "code_version": f"{__version__}+src.{_source_digest()}",
+        "code_version": f"{__version__}+src.{source_digest()}",
     }
 
 
@@ -149,7 +149,7 @@ def run_task(unit_curve: UnitCurve, nu: float, depth_mm: np.ndarray) -> dict:
     nu, f, reason = _run_one(unit_curve, nu, depth_mm)
     return {"nu": nu, "values": f, "reason": reason, "seconds": time.perf_counter() - t,
             "cpu_seconds": time.thread_time() - cpu, "worker": f"{socket.gethostname()}:{os.getpid()}",
-            "code": _source_digest()}
+            "code": source_digest()}
 
 
 def expected_code_of(settings: Mapping) -> str | None:

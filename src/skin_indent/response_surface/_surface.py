@@ -139,7 +139,7 @@ class ResponseSurface:
         s_h = h**1.5 if scaling != "none" else np.ones_like(h)
         s_nu = 1.0 / (1.0 - nu**2) if scaling == "hertz" else np.ones_like(nu)
         self._g = f / (s_h[:, None] * s_nu[None, :])
-        self._nu_ops = {"lagrange": _lagrange_stencils(nu), "spline": _spline_stencils(nu)}
+        self._nu_ops = {}  # method -> interpolation in nu, made when first used (:meth:`_nu_op`)
         self._E_op = _lagrange_stencils(grid.E_kPa)
         self._E_coef = self._E_op.data_coef(grid.E_kPa)  # polynomial sum_j L_j(E) E_j per interval
         self._depth = {}  # depth_interp -> (stencils, coefficients (n_int, K, n_nu) of g)
@@ -484,6 +484,12 @@ class ResponseSurface:
                 f"{g.nu[0]:g}-{g.nu[-1]:g}, {len(self.failures)} failed, hash {self.hash[:12]})")
 
     # ------------------------------------------------------------ evaluation
+    def _nu_op(self, method):
+        if method not in self._nu_ops:
+            build = _lagrange_stencils if method == "lagrange" else _spline_stencils
+            self._nu_ops[method] = build(self.grid.nu)
+        return self._nu_ops[method]
+
     def _depth_op(self, kind):
         if kind not in self._depth:
             op = _DEPTH_BUILDERS[kind](self.grid.depth_mm)
@@ -557,7 +563,7 @@ class ResponseSurface:
             h = np.where(contact, h, g.depth_mm[0])
         # weights of the nu nodes, then the per-interval depth polynomials of g contracted
         # with them: g(h, nu) = sum_k t^k sum_c D[i, k, c] w_c(nu)
-        cols, w, dw = self._nu_ops[method].weights(nu)
+        cols, w, dw = self._nu_op(method).weights(nu)
         if self._missing[cols].any():
             bad = g.nu[cols][self._missing[cols]]
             why = "; ".join(self.failures.get(float(x), "?") for x in bad)
@@ -588,6 +594,24 @@ class ResponseSurface:
             out[~contact] = 0.0
         return out[:, 0].reshape(h_in.shape), out[:, 1:].reshape(h_in.shape + (2,))
 
+    def node_unit_forces(self, depth_mm) -> np.ndarray:
+        """f(h; nu_j) at every nu node of the grid (mN at E = 1 kPa): each run interpolated in depth only.
+
+        What :meth:`evaluate` gives at a nu node, for all of them at once (to rounding); see
+        :class:`NodeForces` for several surfaces on one grid.
+
+        Parameters
+        ----------
+        depth_mm : array_like
+            Depths h (mm), 0 < h <= the last depth node (with ``scaling="none"``, within the nodes).
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(n_nu,) + depth_mm.shape``
+            NaN in the columns of failed runs.
+        """
+        return NodeForces([self])(depth_mm)[0]
+
     def force(self, depth_mm, theta, method: str | None = None, **kwargs) -> np.ndarray:
         """Interpolated force F(h; E, nu) (mN); arguments as in :meth:`evaluate`."""
         return self.evaluate(depth_mm, theta, method=method, **kwargs)[0]
@@ -597,3 +621,60 @@ class ResponseSurface:
     def jacobian(self, depth_mm, theta, method: str | None = None, **kwargs) -> np.ndarray:
         """``[dF/dE (mN/kPa), dF/dnu (mN)]``, shape ``(n_depth, 2)``; as in :meth:`evaluate`."""
         return self.evaluate(depth_mm, theta, method=method, **kwargs)[1]
+
+
+class NodeForces:
+    """The runs of several response surfaces on one grid, interpolated in depth at once.
+
+    An :class:`~skin_indent.models.effect_surface.EffectSurface` holds one surface per node of
+    its effect axes; at every evaluation it needs every run of every one of them at the
+    measured depths. The depth interpolation is linear in the data, so it is one contraction
+    of the stacked polynomial coefficients of all surfaces (what :meth:`ResponseSurface.evaluate`
+    computes at a nu node, surface by surface).
+
+    Parameters
+    ----------
+    surfaces : sequence of ResponseSurface
+        On the same depth and nu nodes, with the same ``depth_interp`` and ``scaling``.
+    """
+
+    def __init__(self, surfaces):
+        surfaces = list(surfaces)
+        if not surfaces:
+            raise ValueError("no surface given")
+        first = surfaces[0]
+        for other in surfaces[1:]:
+            if (not np.array_equal(other.grid.depth_mm, first.grid.depth_mm)
+                    or not np.array_equal(other.grid.nu, first.grid.nu) or other.depth_interp != first.depth_interp
+                    or other.scaling != first.scaling):
+                raise ValueError("the surfaces must share their depth and nu nodes, depth_interp and scaling")
+        self._op = first._depth_op(first.depth_interp)[0]
+        self._coef = np.stack([s._depth_op(s.depth_interp)[1] for s in surfaces])  # (S, n_int, K, n_nu)
+        self._missing = np.stack([s._missing for s in surfaces])  # (S, n_nu)
+        self._range = first.depth_range
+        nu = first.grid.nu
+        self._s_nu = 1.0 / (1.0 - nu * nu) if first.scaling == "hertz" else np.ones_like(nu)
+        self._scaled = first.scaling != "none"
+
+    def __call__(self, depth_mm) -> np.ndarray:
+        """f(h; nu_j) (mN at E = 1 kPa), shape ``(n_surfaces, n_nu) + depth_mm.shape``; NaN where a run failed.
+
+        Raises
+        ------
+        ValueError
+            A depth outside the surfaces (0 < h <= the last depth node).
+        """
+        h_in = np.asarray(depth_mm, dtype=float)
+        h = h_in.ravel()
+        if h.size:
+            hmin, hmax = self._range
+            lo, hi = float(h.min()), float(h.max())
+            if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0 or lo < hmin * (1 - _RTOL_BOUNDS) \
+                    or hi > hmax * (1 + _RTOL_BOUNDS):
+                raise ValueError(f"depth_mm must lie in ({hmin:g}, {hmax:g}] mm for this response surface")
+        i, tp = self._op.locate(h, deriv=False)
+        f = np.einsum("mk,smkc->scm", tp, self._coef[:, i]) * self._s_nu[None, :, None]
+        if self._scaled:
+            f *= (h * np.sqrt(h))[None, None, :]
+        f[self._missing] = np.nan
+        return f.reshape(f.shape[:2] + h_in.shape)

@@ -73,5 +73,5 @@ class LinearElastic(Material):
             lam * np.einsum("ij,kl->ijkl", eye, eye)
             + mu * (np.einsum("ik,jl->ijkl", eye, eye) + np.einsum("il,jk->ijkl", eye, eye))
         )
-        A = np.broadcast_to(A[..., *([None] * (H.ndim - 2))], (3, 3, 3, 3) + H.shape[2:])
+        A = np.broadcast_to(A[(Ellipsis,) + (None,) * (H.ndim - 2)], (3, 3, 3, 3) + H.shape[2:])
         return self.stress(H), A
