@@ -66,6 +66,7 @@ from ..measurement.scale import PACKAGE_UNITS, DisplayUnits, Name, Quantity, Uni
 from .evidence import suggest_measurement
 from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_sample, sample_noise
 from ..fitting.knowledge import DETERMINED_BY
+from ..fitting.scale_checks import contact_points, points_flags
 from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung, evidence
 from ..models.composed import at_physical_limit
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
@@ -167,6 +168,14 @@ class Diagnosis:
         determined).
     not_determined : dict
         :meth:`undetermined`.
+    notes : list of str
+        What the verdict rests on that a reader should know: fewer points in contact than the
+        last rung's parameters need to be judged (five per fitted parameter,
+        :func:`~skin_indent.fitting.scale_checks.points_flags`); each is also a flag of the
+        curve's row in a batch (:func:`~skin_indent.diagnosis.diagnose_many`). A given model with
+        more parameters than the points in contact can determine (fewer than ``n_free + 2``) is
+        refused (:class:`~skin_indent.measurement.MeasurementError`), and a candidate that has them
+        is not fitted (``untried``, with the reason).
     untried : dict
         Combinations of effects (``"layer+layer"``) that were not fitted, with why: every
         examination's candidates that could not be fitted, in every explanation climbed,
@@ -709,6 +718,10 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
                 continue
             why = why[len(NOT_FITTED):].lstrip(": ")
             why = re.sub(r"^the model \S+ could not be fitted$", "the fit failed from every start", why)
+            # fewer points in contact than the model's parameters need (Fitter.check_points): one reason for all
+            why = re.sub(r"^.*?: (\d+) point\(s\) in contact for \d+ fitted parameter\(s\) of \S+, at least \d+ "
+                         r"needed.*$", r"too few points: \1 in contact, fewer than each model's fitted parameters + 2",
+                         why)
             if not fitter.in_loop and "in the loop" in why:
                 why = ("no response surface combines these effects, and in_loop=False (--surfaces-only) switches "
                        "off the finite-element model in the loop")
@@ -939,6 +952,8 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     # the last rung's standard deviations, as they decide what the curve determines (finite-element
     # derivatives where the fit leaves a parameter loose): its one set of numbers everywhere
     std, std_source, not_determined, predictions = determine(fitter, final)
+    # fewer points in contact than the last rung's parameters need to be judged (5 each): said in a note
+    notes += points_flags(contact_points(data), final.n_free)
     if std != final.std:
         scores.rungs[key] = dataclasses.replace(final, std=std)
 

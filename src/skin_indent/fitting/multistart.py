@@ -23,6 +23,7 @@ from ..models.joint import curve_name, split_name
 from ..runtime.json_io import jsonable
 from .identification import hertz_modulus
 from .knowledge import held_coordinates, prior_rows, prior_summary
+from .scale_checks import check_points
 from .surfaces import elastic_core
 
 log = logging.getLogger(__name__)
@@ -274,6 +275,19 @@ class Fitter:
         if unknown:
             raise ValueError(f"{', '.join(unknown)}: not a parameter of {model.name} (its parameters: "
                              f"{', '.join(dict.fromkeys((*model.model_parameters(model.bounds[0]), )))})")
+
+    def check_points(self, model) -> None:
+        """Refuse to fit ``model`` to fewer points in contact than its free parameters need
+        (:func:`~.scale_checks.check_points`: ``n_free + 2``, the fixed ones not counted).
+
+        Raises
+        ------
+        MeasurementError
+            One line naming the count, the model and what it needs: a diagnosis reports it as the
+            curve's error for the given model, and a candidate with more parameters than the curve
+            can take as not fitted (``untried``, with this reason).
+        """
+        check_points(self.data, len(model.parameter_names) - len(self.held(model)), model=model.name)
 
     def core(self, effects, k: int = 0):
         """The elastic force model of these effects for curve ``k`` (cached per set of elastic effects
@@ -610,6 +624,7 @@ class Fitter:
         if key in self.fits:
             return self.fits[key]
         model = self.model(key)
+        self.check_points(model)
         d = self.data
         known = {"fixed": self.held(model) or None, "priors": self.prior_terms(model) or None}
         starts = self.starts(model, key)
