@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 from _data import DATA
 
+from skin_indent.data import bundled_path
 from skin_indent.diagnosis import DiagnosisRow, diagnose, diagnose_many
 from skin_indent.diagnosis.batch import DIAGNOSIS_COLUMNS, FAILED
 from skin_indent.measurement import load_csv, load_curve
@@ -210,6 +211,58 @@ def test_settings_no_curve_could_take_are_refused_before_any_file_is_read(tmp_pa
                       ({"max_rungs": -1}, "max_rungs")):
         with pytest.raises(ValueError, match=match):
             diagnose_many(tmp_path / "not-read.csv", **kw)
+
+
+def _short(folder, name: str, rows: int):
+    """The first ``rows`` rows of the bundled forearm curve, every 15th (row 0 at h = 0, the others in contact)."""
+    m = load_csv(bundled_path("forearm_like.csv"))
+    path = folder / f"{name}.csv"
+    path.write_text("# radius_mm: 6.22\ndepth_mm,force_mN\n" + "".join(
+        f"{d:.9g},{f:.9g}\n" for d, f in zip(m.depth_mm[::15][:rows], m.force_mN[::15][:rows])))
+    return path
+
+
+def test_a_curve_with_too_few_points_says_why_in_its_row(gallery_cache, diagnosis_surfaces, tmp_path, capsys,
+                                                          monkeypatch):
+    """A 5-point curve (4 in contact) and a 4-point one (3 in contact): no row has a bare NaN. Without a noise
+    level, each row's error says the points are too few to estimate it; with one, the 4-point curve is refused
+    (fewer points in contact than the half-space's 2 parameters + 2) and the 5-point one is diagnosed with
+    the candidates it cannot take not fitted (the verdict provisional, with why) and a flag naming the count."""
+    five, four = _short(tmp_path, "five", 5), _short(tmp_path, "four", 4)
+    context = Context(cache_dir=gallery_cache, workers=1)
+    estimated = diagnose_many([five, four], context=context, progress=False, **CHEAP)
+    assert [r.n_points for r in estimated] == [5, 4]
+    assert all("too few to estimate the noise" in r.error and "--noise" in r.error for r in estimated)
+    rows = diagnose_many([five, four], context=context, progress=False, noise_mN=0.05, **CHEAP)
+    diagnosed, refused = rows
+    assert refused.error == ("four.csv: 3 point(s) in contact for 2 fitted parameter(s) of neo-hooke, at least 4 "
+                             "needed: a window that cuts the curve, a decimated export, or hold more parameters fixed "
+                             "(--fix nu=0.5)")
+    assert math.isnan(refused.misfit) and refused.outcome == FAILED
+    assert not diagnosed.error and math.isfinite(diagnosed.misfit) and diagnosed.provisional
+    assert diagnosed.flags == ("4 points in contact for 2 fitted parameters (fewer than 5 per parameter): too few to "
+                               "judge the fit; a window that cuts the curve or a decimated export?",)
+    assert not rows.trusted and set(diagnosed.untried) == {"offset", "layer", "stiffening"}
+    alone = diagnose(load_csv(five), context=context, noise_mN=0.05, **CHEAP)
+    assert alone.untried == dict.fromkeys(diagnosed.untried, "too few points: 4 in contact, fewer than each model's "
+                                                             "fitted parameters + 2")
+    assert alone.notes == list(diagnosed.flags) and "note: 4 points in contact" in alone.report()
+    assert "+offset        not fitted: five.csv: 4 point(s) in contact for 3 fitted parameter(s) of neo-hooke+offset" \
+        in alone.report()
+    # the table: a NaN misfit only beside an error that says why
+    with open(write_tsv(rows, tmp_path / "short.tsv")) as fh:
+        table = list(csv.DictReader((line for line in fh if not line.startswith("#")), delimiter="\t"))
+    for line in [*table, *(dict(zip(DIAGNOSIS_COLUMNS, (str(getattr(r, c)) for c in DIAGNOSIS_COLUMNS)))
+                           for r in estimated)]:
+        assert line["misfit"] != "nan" or line["error"], line
+    assert table[0]["flags"].startswith("4 points in contact") and table[1]["error"].startswith("four.csv: 3 point(s)")
+    # one curve on the command line: the refusal in one line, exit 2
+    from skin_indent.cli import main
+
+    monkeypatch.setenv("SKIN_INDENT_CACHE", str(gallery_cache))
+    assert main(["diagnose", str(four), "--noise", "0.05", "--surfaces-only", "--max-rungs", "1", "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "3 point(s) in contact for 2 fitted parameter(s) of neo-hooke, at least 4" in err[0]
 
 
 def test_rows_in_text_and_json():

@@ -88,9 +88,14 @@ class DiagnosisRow(CurveLocation):
         Parameters of the final model the curve does not determine.
     error : str
         One-line error when the file or the curve could not be read, prepared or
-        diagnosed (the numbers are then NaN); empty otherwise.
+        diagnosed (the numbers are then NaN): too few points to estimate the noise, or fewer
+        points in contact than the given model's parameters need (``"c.csv: 3 point(s) in
+        contact for 2 fitted parameter(s) of neo-hooke, at least 4 needed: ..."``); empty
+        otherwise.
     flags : tuple of str
-        What went wrong around the diagnosis (an output not written); empty normally.
+        What makes the diagnosis doubtful (the diagnosis' ``notes``: fewer points in contact
+        than five per parameter of the final model) or went wrong around it (an output not
+        written); empty normally.
     parameters, std : dict
         The final model's parameters and standard deviations (the table gets ``NAME`` and
         ``NAME_sd`` for each beyond ``E_kPa``).
@@ -200,7 +205,8 @@ def _numbers(d) -> dict:
             "E_std_kPa": float(cur.std.get("E_kPa", math.nan)), "rms_mN": float(cur.rms_mN),
             "misfit": float(cur.rms_mN / d.noise_mN), "white": bool(cur.white), "base_rms_mN": float(d.base.rms_mN),
             "confounded_with": tuple(d.confounded_with), "untried": tuple(d.untried),
-            "undetermined": tuple(d.not_determined), "parameters": dict(cur.parameters), "std": dict(cur.std)}
+            "undetermined": tuple(d.not_determined), "parameters": dict(cur.parameters), "std": dict(cur.std),
+            "flags": tuple(str(n) for n in d.notes)}
 
 
 @contextlib.contextmanager

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ..measurement.scale import Quantity, UnitText
 from ..models import JointModel
 from .measurements import (DEEPER, HOLD_S, Separation, acts_in_time, base_history, deeper, hold, model_of, predict,
                            separation, sphere)
@@ -99,10 +100,30 @@ def _names(a, b) -> tuple[str, str]:
 
 
 def sentence(candidate, s: Separation, ea: str, eb: str, noise_mN: float) -> str:
-    """``"<measurement> would separate <ea> from <eb>: ..."`` with the separation's numbers."""
-    return (f"{candidate.label} would separate {ea} from {eb}: the fitted models differ there by up to "
-            f"{s.max_difference_mN:.3g} mN, {s.max_difference_mN / noise_mN:.1f} times the noise, and by "
-            f"{s.separation:.3g} noise units in root-sum-square over its {s.points} points")
+    """``"<measurement> would separate <ea> from <eb>: ..."`` with the separation's numbers.
+
+    Parameters
+    ----------
+    candidate : Candidate
+        The measurement (its ``label``: lengths in mm).
+    s : Separation
+        How far apart the two explanations predict it (the largest difference in mN).
+    ea, eb : str
+        How the sentence names the two explanations.
+    noise_mN : float
+        The recorded curve's noise (mN).
+
+    Returns
+    -------
+    UnitText
+        A ``str`` in package units (mm, mN: what JSON keeps) that keeps its numbers, so that the
+        text of a diagnosis writes it in the units of the curve's scale
+        (:func:`~skin_indent.measurement.scale.shown_in`: um and nN at AFM scale).
+    """
+    return UnitText("{label} would separate {ea} from {eb}: the fitted models differ there by up to {diff:.3g}, "
+                    "{times:.1f} times the noise, and by {separation:.3g} noise units in root-sum-square over its "
+                    "{points} points", label=candidate.label, ea=ea, eb=eb, diff=Quantity(s.max_difference_mN, "mN"),
+                    times=s.max_difference_mN / noise_mN, separation=s.separation, points=s.points)
 
 
 def suggest_measurement(fitter, a, b) -> str:
@@ -126,7 +147,9 @@ def suggest_measurement(fitter, a, b) -> str:
     Returns
     -------
     str
-        One sentence (without a final full stop).
+        One sentence (without a final full stop): a
+        :class:`~skin_indent.measurement.scale.UnitText` (:func:`sentence`) in package units that
+        reads in the units of the curve's scale, or a plain ``str`` when no measurement separates them.
     """
     ea, eb = _names(a, b)
     data, model, x = fitter.data, a.bound_model, a.x

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..effects import ELASTIC
 from ..inverse.result import jacobian_covariance
+from ..measurement.scale import Quantity, UnitText
 from ..models import ComposedModel, JointModel
 from ..fitting.multistart import MODEL_ERROR
 from ..models.fe_core import FECore
@@ -81,16 +82,19 @@ class Alternative:
         Returns
         -------
         str
-            E.g. ``"an indentation 1.5 times deeper (0.9 mm)"``.
+            E.g. ``"an indentation 1.5 times deeper (0.9 mm)"``: a
+            :class:`~skin_indent.measurement.scale.UnitText`, which reads in the units of the
+            curve's scale (``"(0.9 um)"``...).
         """
+        h = Quantity(self.depth_factor * depth_mm, "mm")
         if self.depth_factor != 1.0 and self.radius_factor == 1.0:
-            return f"an indentation {self.depth_factor:g} times deeper ({self.depth_factor * depth_mm:.3g} mm)"
+            return UnitText("an indentation {k:g} times deeper ({h:.3g})", k=self.depth_factor, h=h)
         size = {2.0: "twice the radius", 0.5: "half the radius"}.get(self.radius_factor,
                                                                      f"{self.radius_factor:g} times the radius")
         depth = ("the same depth" if self.depth_factor == 1.0
                  else f"{self.depth_factor:g} times the depth")
-        return (f"a sphere of {size} ({self.radius_factor * radius_mm:.3g} mm) to {depth} "
-                f"({self.depth_factor * depth_mm:.3g} mm)")
+        return UnitText("a sphere of {size} ({R:.3g}) to {depth} ({h:.3g})", size=size,
+                        R=Quantity(self.radius_factor * radius_mm, "mm"), depth=depth, h=h)
 
 
 #: the recorded measurement itself: its finite-element standard deviations check the fit's own
@@ -110,7 +114,7 @@ class Prediction:
     ----------
     alternative : Alternative
     label : str
-        The measurement in words, with its sphere radius and depth (mm).
+        The measurement in words, with its sphere radius and depth (mm; :meth:`Alternative.describe`).
     std : dict or None
         ``{reported parameter: standard deviation}`` in the parameters' units; None when
         the computation failed.
@@ -464,8 +468,10 @@ def suggestion(name: str, value: float, predictions) -> str:
     str
         ``"; <measurement> would determine it to +- <sd>"`` for the alternative with the
         smallest predicted standard deviation, when it is below :data:`DETERMINED` times
-        the value; ``"; none of <the alternatives> would determine it"`` when none is;
-        ``""`` when no alternative could be evaluated.
+        the value (a :class:`~skin_indent.measurement.scale.UnitText`: the measurement's
+        lengths and the standard deviation, in the parameter's unit, read in any units);
+        ``"; none of <the alternatives> would determine it"`` when none is; ``""`` when no
+        alternative could be evaluated.
     """
     done = [p for p in predictions if p.std is not None and name in p.std]
     if not done:
@@ -473,7 +479,8 @@ def suggestion(name: str, value: float, predictions) -> str:
     sds = [p.std[name] if math.isfinite(p.std[name]) else math.inf for p in done]
     best = int(np.argmin(sds))
     if sds[best] < DETERMINED * abs(value):
-        return f"; {done[best].label} would determine it to +- {sds[best]:.2g}"
+        return UnitText("; {label} would determine it to +- {sd:.2g}", label=done[best].label,
+                        sd=Quantity(sds[best], name))
     keys = [p.alternative.key for p in done]
     if sorted(keys) == sorted(a.key for a in ALTERNATIVES):
         return "; none of a larger/smaller sphere or a deeper indentation would determine it"

@@ -51,6 +51,7 @@ from ..effects import DEPTH, HISTORY, Model, instances
 from ..fitting.multistart import MODEL_ERROR
 from ..inverse.result import jacobian_covariance
 from ..measurement.preparation import MAX_DEPTH_RATIO
+from ..measurement.scale import Quantity, UnitText
 from ..models.joint import split_name
 from ..models import ComposedModel
 from ..models.fe_core import FECore
@@ -75,7 +76,9 @@ class Candidate:
     kind : str
         ``"sphere"``, ``"deeper"``, ``"hold"`` or ``"speed"``.
     label : str
-        The measurement in words, with its numbers (mm, s, mm/s).
+        The measurement in words, with its numbers (mm, s, mm/s); a
+        :class:`~skin_indent.measurement.scale.UnitText` where it holds lengths (a sphere, a
+        deeper indentation, a hold), which reads in the units of the curve's scale.
     curve : PreparedCurve
         Its points: ``depth_mm`` the depth below its own contact point (mm, > 0),
         ``time_s`` (s, or None when the recorded curve has no time), ``kind`` per point,
@@ -200,12 +203,15 @@ def sphere(base, radius_mm: float) -> Candidate:
     R, h = float(base.radius_mm), float(np.max(base.depth_mm))
     _check_depth(h, radius_mm, f"a sphere of R = {radius_mm:g} mm")
     ratio = radius_mm / R
+    depth = Quantity(h, "mm")
     if math.isclose(ratio, 1.0, rel_tol=1e-6):
-        label, reference = f"the same sphere again (R = {R:.3g} mm, to {h:.3g} mm)", True
+        label = UnitText("the same sphere again (R = {R:.3g}, to {h:.3g})", R=Quantity(R, "mm"), h=depth)
+        reference = True
     else:
         size = {0.5: "half the radius", 2.0: "twice the radius"}.get(round(ratio, 6), None)
-        size = f"{size} (R = {radius_mm:.3g} mm)" if size else f"R = {radius_mm:.3g} mm"
-        label, reference = f"a sphere of {size} to the same depth ({h:.3g} mm)", False
+        label = UnitText("a sphere of " + ("{size} (R = {R:.3g})" if size else "R = {R:.3g}") + " to the same depth "
+                         "({h:.3g})", size=size, R=Quantity(radius_mm, "mm"), h=depth)
+        reference = False
     curve = dataclasses.replace(base, radius_mm=float(radius_mm))
     return Candidate("sphere", label, curve, float(radius_mm), reference)
 
@@ -227,8 +233,8 @@ def deeper(base, max_depth_mm: float) -> Candidate:
         dt = np.diff(t) * np.where(_moving(base.depth_mm), k, 1.0)
         t = t[0] * k + np.r_[0.0, np.cumsum(dt)]
     curve = _points(base, k * base.depth_mm, t, base.kind, base.radius_mm)
-    return Candidate("deeper", f"an indentation to {max_depth_mm:.3g} mm ({k:.3g} times deeper) with the same sphere",
-                     curve, float(max_depth_mm))
+    return Candidate("deeper", UnitText("an indentation to {h:.3g} ({k:.3g} times deeper) with the same sphere",
+                                        h=Quantity(max_depth_mm, "mm"), k=k), curve, float(max_depth_mm))
 
 
 def hold(base, hold_s: float = HOLD_S, points: int = HOLD_POINTS) -> Candidate:
@@ -250,8 +256,8 @@ def hold(base, hold_s: float = HOLD_S, points: int = HOLD_POINTS) -> Candidate:
     time = np.r_[base.time_s[:end], t_end + hold_s * np.arange(1, points + 1) / points]
     curve = _points(base, np.r_[base.depth_mm[:end], np.full(points, h_end)], time,
                     np.r_[base.kind[:end], np.full(points, "hold")], base.radius_mm)
-    return Candidate("hold", f"a {hold_s:.3g} s hold at the deepest point ({h_end:.3g} mm) after the recorded loading",
-                     curve, float(hold_s))
+    return Candidate("hold", UnitText("a {t:.3g} s hold at the deepest point ({h:.3g}) after the recorded loading",
+                                      t=hold_s, h=Quantity(h_end, "mm")), curve, float(hold_s))
 
 
 def loading_speed(curve) -> float:

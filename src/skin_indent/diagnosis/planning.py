@@ -45,6 +45,7 @@ import numpy as np
 
 from ..fitting.knowledge import prior_rows
 from ..fitting.model_fit import prepare_curve
+from ..measurement.scale import PACKAGE_UNITS
 from ..models import JointModel
 from ..runtime.json_io import jsonable
 from ..runtime.provenance import data_identity, provenance
@@ -322,7 +323,7 @@ class Plan:
             "skipped": dict(self.skipped),
             "notes": list(self.notes),
             "sentence": self.sentence(),
-            "diagnosis": d.sentence(),
+            "diagnosis": d.sentence(PACKAGE_UNITS),
             "provenance": dict(self.provenance),
         })
 

@@ -62,9 +62,11 @@ import numpy as np
 
 from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, CurveSet, PreparedCurve
+from ..measurement.scale import PACKAGE_UNITS, DisplayUnits, Name, Quantity, UnitText, display_units, shown_in
 from .evidence import suggest_measurement
 from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_sample, sample_noise
 from ..fitting.knowledge import DETERMINED_BY
+from ..fitting.scale_checks import contact_points, points_flags
 from ..fitting.multistart import MODEL_ERROR, NO_STRUCTURE, Fitter, Rung, evidence
 from ..models.composed import at_physical_limit
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
@@ -102,14 +104,18 @@ FROM_FIT = "fit"
 FROM_FE = "finite-element derivatives"
 
 
-def _fmt_params(f: Rung) -> str:
+def _fmt_params(f: Rung, units: DisplayUnits) -> str:
+    """A rung's parameters as the text of a diagnosis shows them, ``name = value +- sd``, in ``units``
+    (names and values as :meth:`~skin_indent.measurement.scale.DisplayUnits.name` and ``factor`` make
+    them: ``E_Pa = 203.9 +- 1.9`` at AFM scale for ``E_kPa = 0.2039 +- 0.0019``)."""
     parts = []
     for k, v in f.parameters.items():
         s = f.std.get(k, math.nan)
+        name, c = units.name(k), units.factor(k)
         if math.isinf(v):
-            parts.append(f"{k} = inf (rigid)")
+            parts.append(f"{name} = inf (rigid)")
         else:
-            parts.append(f"{k} = {v:.4g}" + ("" if not math.isfinite(s) else f" +- {s:.2g}"))
+            parts.append(f"{name} = {v * c:.4g}" + ("" if not math.isfinite(s) else f" +- {s * c:.2g}"))
     return ", ".join(parts)
 
 
@@ -126,6 +132,11 @@ class Diagnosis:
     Plain data: :func:`diagnose` computes everything, and every output (:meth:`report`,
     :meth:`sentence`, :meth:`to_dict`, :func:`~.report.write_report`) reads the same rungs,
     one :class:`Rung` per model (its parameters, standard deviations, RMS and BIC).
+
+    The numbers are held in the package units (mm, mN, kPa). :attr:`units` decides, once, the
+    units the text, the sentences, the HTML page and the figures show them in: um, nN and Pa for
+    an AFM-scale curve, mm, mN and kPa for skin (:func:`~skin_indent.measurement.scale.display_units`
+    of the first curve's sphere radius); :meth:`to_dict` (JSON) keeps the package units.
 
     Attributes
     ----------
@@ -157,6 +168,14 @@ class Diagnosis:
         determined).
     not_determined : dict
         :meth:`undetermined`.
+    notes : list of str
+        What the verdict rests on that a reader should know: fewer points in contact than the
+        last rung's parameters need to be judged (five per fitted parameter,
+        :func:`~skin_indent.fitting.scale_checks.points_flags`); each is also a flag of the
+        curve's row in a batch (:func:`~skin_indent.diagnosis.diagnose_many`). A given model with
+        more parameters than the points in contact can determine (fewer than ``n_free + 2``) is
+        refused (:class:`~skin_indent.measurement.MeasurementError`), and a candidate that has them
+        is not fitted (``untried``, with the reason).
     untried : dict
         Combinations of effects (``"layer+layer"``) that were not fitted, with why: every
         examination's candidates that could not be fitted, in every explanation climbed,
@@ -199,6 +218,15 @@ class Diagnosis:
     @property
     def current(self) -> Rung:
         return self.ladder[-1]
+
+    @property
+    def units(self) -> DisplayUnits:
+        """The units the text, sentences, page and figures of the diagnosis are read in: those of the
+        scale of its (first) curve's sphere (:func:`~skin_indent.measurement.scale.display_units`: um,
+        nN and Pa below a radius of 0.5 mm, else mm, mN and kPa). For several curves of one sample,
+        the first curve's scale decides."""
+        first = self.curves[0] if self.curves else self.data
+        return display_units(float(first.radius_mm))
 
     @property
     def base(self) -> Rung:
@@ -250,13 +278,22 @@ class Diagnosis:
             groups.setdefault(why, []).append(combo)
         return "; ".join(f"not tried: {_listed(combos)} ({why})" for why, combos in groups.items())
 
-    def sentence(self) -> str:
+    def sentence(self, units: DisplayUnits | None = None) -> str:
         """The diagnosis in a few sentences: what is missing, whether the last rung explains the curve,
         what was not tried, and what the curve does not determine (with the standard deviations the
-        last rung reports)."""
-        text = self._verdict_sentence()
+        last rung reports).
+
+        Parameters
+        ----------
+        units : DisplayUnits, optional
+            The units of its numbers and parameter names; default :attr:`units` (the curve's scale).
+            :meth:`to_dict` gives the package units
+            (:data:`~skin_indent.measurement.scale.PACKAGE_UNITS`).
+        """
+        u = self.units if units is None else units
+        text = self._verdict_sentence(u)
         for reason in self.not_determined.values():
-            text += f" {reason}."
+            text += f" {shown_in(reason, u)}."
         return text
 
     @property
@@ -268,37 +305,44 @@ class Diagnosis:
     def _these(self) -> str:
         return f"these {len(self.curves)} curves" if self.joint else "this curve"
 
-    def _rms(self, f: Rung, digits: int = 3) -> str:
-        """A rung's RMS as the sentences show it (mN): each curve's, in input order, for several."""
+    def _rms(self, f: Rung, units: DisplayUnits, digits: int = 3) -> str:
+        """A rung's RMS as the sentences show it, in ``units.force`` (the unit is not written): each
+        curve's, in input order, for several."""
+        k = units.per_mN
         if self.joint and len(f.curve_rms_mN) > 1:
-            return "(" + ", ".join(f"{v:.{digits}g}" for v in f.curve_rms_mN) + ")"
-        return f"{f.rms_mN:.{digits}g}"
+            return "(" + ", ".join(f"{v * k:.{digits}g}" for v in f.curve_rms_mN) + ")"
+        return f"{f.rms_mN * k:.{digits}g}"
 
-    def _noise(self, digits: int = 3) -> str:
+    def _noise(self, units: DisplayUnits, digits: int = 3) -> str:
+        """The noise as the sentences show it, in ``units.force`` (each curve's for several)."""
+        k = units.per_mN
         if self.joint:
-            return "(" + ", ".join(f"{v:.{digits}g}" for v in self.noises_mN) + ")"
-        return f"{self.noise_mN:.{digits}g}"
+            return "(" + ", ".join(f"{v * k:.{digits}g}" for v in self.noises_mN) + ")"
+        return f"{self.noise_mN * k:.{digits}g}"
 
-    def _verdict_sentence(self) -> str:
+    def _verdict_sentence(self, u: DisplayUnits) -> str:
+        """The verdict in words, its numbers in the units ``u``."""
         cur, base = self.current, self.ladder[self.n_given]
         first = self.steps[0] if self.steps else None
         untried = self._untried_clause()
+        structure, suggested = shown_in(cur.structure, u), shown_in(self.suggested_measurement, u)
+        F = u.force
         provisional = f" The verdict is provisional: {untried}." if untried else ""
         if not self.missing:
             if self.verdict == "ambiguous" and first is not None:
                 effects = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
-                return (f"The {cur.model} model fails ({cur.structure}); {' and '.join(effects)} explain it "
-                        f"about equally well: {self.suggested_measurement}" + provisional)
+                return (f"The {cur.model} model fails ({structure}); {' and '.join(effects)} explain it "
+                        f"about equally well: {suggested}" + provisional)
             if self.verdict not in ("none", "unexplained") and first is not None:  # named, not added (max_rungs = 0)
                 top = first.ranking[0]
-                return (f"The {cur.model} model fails ({cur.structure}); the missing effect is {self.verdict}: "
-                        f"adding it lowers the RMS from {self._rms(cur)} to {self._rms(top)} mN (noise "
-                        f"{self._noise()} mN) and the BIC by {first.rung.bic - top.bic:.1f}." + provisional)
+                return (f"The {cur.model} model fails ({structure}); the missing effect is {self.verdict}: "
+                        f"adding it lowers the RMS from {self._rms(cur, u)} to {self._rms(top, u)} {F} (noise "
+                        f"{self._noise(u)} {F}) and the BIC by {first.rung.bic - top.bic:.1f}." + provisional)
             if self.explained:
-                return (f"The {cur.model} model explains {self._these} to the noise level ({self._rms(cur)} mN RMS "
-                        f"against {self._noise()} mN noise): no missing effect is needed." + provisional)
-            text = (f"The {cur.model} model does not explain {self._these} ({self._rms(cur)} mN RMS against "
-                    f"{self._noise()} mN noise; {cur.structure})")
+                return (f"The {cur.model} model explains {self._these} to the noise level ({self._rms(cur, u)} {F} RMS "
+                        f"against {self._noise(u)} {F} noise): no missing effect is needed." + provisional)
+            text = (f"The {cur.model} model does not explain {self._these} ({self._rms(cur, u)} {F} RMS against "
+                    f"{self._noise(u)} {F} noise; {structure})")
             if untried:
                 return (text + f"; of the effects fitted, none lowers the BIC by more than {STRONG:g}, and the verdict "
                         f"is provisional: {untried}.")
@@ -306,34 +350,46 @@ class Diagnosis:
                        else "not among the effects tested")
             return (text + f", and no effect {self._tested()} lowers the BIC by more than {STRONG:g}: what is "
                     f"missing is {outside}.")
-        rms = " -> ".join(self._rms(f) for f in self.ladder[self.n_given:])
+        rms = " -> ".join(self._rms(f, u) for f in self.ladder[self.n_given:])
         what = " and ".join(_plural(self.missing))
-        text = f"What the {base.model} model misses: {what} (RMS {rms} mN against {self._noise()} mN noise)"
+        text = f"What the {base.model} model misses: {what} (RMS {rms} {F} against {self._noise(u)} {F} noise)"
         if self.explained:
             text += f"; the {cur.model} model explains {'the curve' if not self.joint else 'every curve'} to the noise."
         elif untried and not any(s.rung.effects == cur.effects for s in self.steps):  # stopped at max_rungs
-            text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}) and was not "
+            text += (f"; the {cur.model} model still leaves a structured residual ({structure}) and was not "
                      f"examined further, so the verdict is provisional: {untried}.")
             untried = ""
         elif untried:
-            text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}); of the effects "
+            text += (f"; the {cur.model} model still leaves a structured residual ({structure}); of the effects "
                      f"fitted on top of it, none lowers the BIC by more than {STRONG:g}, and the verdict is "
                      f"provisional: {untried}.")
             untried = ""
         else:
-            text += (f"; the {cur.model} model still leaves a structured residual ({cur.structure}) and no further "
+            text += (f"; the {cur.model} model still leaves a structured residual ({structure}) and no further "
                      f"effect {self._tested()} lowers the BIC by more than {STRONG:g}.")
         if self.verdict == "ambiguous" or len(self.confounded_with) > 1:
             others = self.confounded_with[1:]
             text += (f" {' or '.join(others).capitalize()} explains it "
                      f"{'about equally well' if self.verdict == 'ambiguous' else 'nearly as well'}: "
-                     f"{self.suggested_measurement}.")
+                     f"{suggested}.")
         if untried:
             text += f" The verdict is provisional: {untried}."
         return text
 
-    def report(self) -> str:
-        """The diagnosis as text (what ``skin-indent diagnose`` prints)."""
+    def report(self, units: DisplayUnits | None = None) -> str:
+        """The diagnosis as text (what ``skin-indent diagnose`` prints).
+
+        Parameters
+        ----------
+        units : DisplayUnits, optional
+            The units of its lengths, forces and moduli, and of the parameters' names (``E_Pa``,
+            ``offset_um``: :meth:`~skin_indent.measurement.scale.DisplayUnits.name`); default
+            :attr:`units`: um, nN and Pa for an AFM-scale curve, mm, mN and kPa for skin. Notes,
+            the structure of the residuals and the suggested measurement are written in them too
+            (:func:`~skin_indent.measurement.scale.shown_in`).
+        """
+        u = self.units if units is None else units
+        F = u.force
         curves = self.curves or [self.data]
         noises = self.noises_mN or [self.noise_mN]
         sources = self.noise_sources or [self.noise_source]
@@ -344,58 +400,75 @@ class Diagnosis:
             lines.append(f"{head}{d.source} ({d.n} points" + (f", bins of {d.binned}" if d.binned > 1 else "") + "; "
                          + ", ".join(f"{kind} {np.count_nonzero(d.kind == kind)}"
                                      for kind in ("approach", "hold", "retract") if np.any(d.kind == kind))
-                         + f"), sphere R = {d.radius_mm:g} mm")
+                         + f"), sphere R = {d.radius_mm * u.per_mm:g} {u.length}")
             if self.joint:
-                lines.append(f"  noise: {noise:.4g} mN, {source}")
+                lines.append(f"  noise: {noise * u.per_mN:.4g} {F}, {source}")
             if d.baseline is not None:
-                lines.append(f"{'  ' if self.joint else ''}baseline force subtracted: {d.baseline_mN:.4g} mN at the "
-                             "contact point (pre-contact part)")
-            lines += [f"{'  ' if self.joint else ''}note: {n}" for n in d.notes]
+                lines.append(f"{'  ' if self.joint else ''}baseline force subtracted: {d.baseline_mN * u.per_mN:.4g} "
+                             f"{F} at the contact point (pre-contact part)")
+            lines += [f"{'  ' if self.joint else ''}note: {shown_in(n, u)}" for n in d.notes]
         errors = (f"model error {100 * MODEL_ERROR:g}% of the force added in quadrature; effective sample size "
                   f"{self.n_effective:.1f} (every BIC below")
         if self.joint:
             lines.append(errors + ", all curves together)")
         else:
-            lines.insert(1, f"noise: {self.noise_mN:.4g} mN, {self.noise_source}; {errors})")
+            lines.insert(1, f"noise: {self.noise_mN * u.per_mN:.4g} {F}, {self.noise_source}; {errors})")
         lines.append("ladder:" + (" (RMS of each curve, in input order)" if self.joint else ""))
         for f in self.ladder:
             how = f", finite elements in the loop ({f.forward_runs} runs)" if f.forward_runs else ""
-            lines.append(f"  {f.model:<28} RMS {self._rms(f, 4)} mN  BIC {f.bic:9.1f}  "
-                         f"{'white' if f.white else 'structured'}  {_fmt_params(f)}{how}")
+            lines.append(f"  {f.model:<28} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
+                         f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}{how}")
         for f in self.alternatives:
-            lines.append(f"  (other explanation) {f.model:<20} RMS {self._rms(f, 4)} mN  BIC {f.bic:9.1f}  "
-                         f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
+            lines.append(f"  (other explanation) {f.model:<20} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
+                         f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
         for name, k in self.current.priors.items():
-            lines.append(f"  what you know, {name}: prior {k['prior_mean']:.4g} +- {k['prior_sd']:.2g}, with the data "
-                         f"{k['posterior']:.4g} +- {k['posterior_sd']:.2g} ({DETERMINED_BY[k['determined_by']]})"
+            c = u.factor(name)
+            lines.append(f"  what you know, {u.name(name)}: prior {k['prior_mean'] * c:.4g} +- "
+                         f"{k['prior_sd'] * c:.2g}, with the data {k['posterior'] * c:.4g} +- "
+                         f"{k['posterior_sd'] * c:.2g} ({DETERMINED_BY[k['determined_by']]})"
                          + (f"; IN TENSION with the data ({k['tension_sd']:.1f} combined sd apart)"
                             if k["in_tension"] else ""))
         for name, v in (self.fitter.fixed.items() if self.fitter is not None else ()):
             if name in self.current.parameters:
-                lines.append(f"  what you know, {name}: held at {v:g}")
-        fe = [k for k, v in self.std_source.items() if v == FROM_FE]
+                lines.append(f"  what you know, {u.name(name)}: held at {v * u.factor(name):g}")
+        fe = [u.name(k) for k, v in self.std_source.items() if v == FROM_FE]
         if fe:
             lines.append(f"  standard deviations of {_listed(fe)} ({self.current.model}): {FROM_FE} at the fitted "
                          "values (the others: the fit's covariance)")
         for i, step in enumerate(self.steps):
-            lines.append(f"where {step.rung.model} fails: {step.rung.structure}")
+            lines.append(f"where {step.rung.model} fails: {shown_in(step.rung.structure, u)}")
             lines.append("candidates (delta BIC > 0: better than that model):")
             for f in step.ranking:
-                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, 4)} mN  "
-                             f"{'white' if f.white else 'structured'}  {_fmt_params(f)}")
+                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
+                             f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
             for k, v in step.not_detectable.items():
                 if v.startswith("not fitted"):
-                    lines.append(f"  +{k:<13} {v}")
+                    lines.append(f"  +{k:<13} {shown_in(v, u)}")
                 elif i == 0:  # what the data cannot show does not change up the ladder
-                    lines.append(f"  {k:<14} not detectable here: {v}")
+                    lines.append(f"  {k:<14} not detectable here: {shown_in(v, u)}")
         lines.append(f"verdict: {self.verdict}" + (" (provisional)" if self.provisional else ""))
         if self.provisional:
             lines.append(f"provisional: {self._untried_clause()}")
-        lines.append(self.sentence())
-        lines += [f"note: {n}" for n in self.notes]
+        lines.append(self.sentence(u))
+        lines += [f"note: {shown_in(n, u)}" for n in self.notes]
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
+        """The diagnosis as JSON-safe data (what ``skin-indent diagnose --json`` prints).
+
+        Every number, name and text is in the package units whatever the curve's scale (mm, mN,
+        kPa, in the names: ``radius_mm``, ``noise_mN``, ``rms_mN``, ``E_kPa``, ``offset_mm``), so
+        that the JSON of AFM-scale and skin-scale curves reads back the same way: the
+        ``"sentence"`` is :meth:`sentence` in the package units
+        (:data:`~skin_indent.measurement.scale.PACKAGE_UNITS`), and the texts that hold numbers
+        (``suggested_measurement``, ``undetermined``, each rung's ``structure``) are written in
+        them too, while :meth:`report`, the HTML page and the figures show an AFM-scale curve in
+        um, nN and Pa (:attr:`units`) from the same numbers.
+
+        Returns
+        -------
+        dict
+        """
         base, cur = self.base, self.current
         contact = cur.parameters.get("offset_mm", 0.0)
 
@@ -448,7 +521,7 @@ class Diagnosis:
             "untried_reasons": dict(self.untried),
             "confounded_with": list(self.confounded_with),
             "suggested_measurement": self.suggested_measurement,
-            "sentence": self.sentence(),
+            "sentence": self.sentence(PACKAGE_UNITS),
             "ladder": [rung(f) for f in self.ladder],
             "notes": list(self.notes),
             "provenance": dict(self.provenance),
@@ -645,6 +718,10 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
                 continue
             why = why[len(NOT_FITTED):].lstrip(": ")
             why = re.sub(r"^the model \S+ could not be fitted$", "the fit failed from every start", why)
+            # fewer points in contact than the model's parameters need (Fitter.check_points): one reason for all
+            why = re.sub(r"^.*?: (\d+) point\(s\) in contact for \d+ fitted parameter\(s\) of \S+, at least \d+ "
+                         r"needed.*$", r"too few points: \1 in contact, fewer than each model's fitted parameters + 2",
+                         why)
             if not fitter.in_loop and "in the loop" in why:
                 why = ("no response surface combines these effects, and in_loop=False (--surfaces-only) switches "
                        "off the finite-element model in the loop")
@@ -672,7 +749,8 @@ def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
     std_source : dict
         ``{name: FROM_FIT or FROM_FE}``.
     reasons : dict
-        ``{name: why not determined}``.
+        ``{name: why not determined}``: :class:`~skin_indent.measurement.scale.UnitText`, in the
+        package units as a ``str``, in any units with :func:`~skin_indent.measurement.scale.shown_in`.
     predictions : list of Prediction
         The alternative measurements' predicted standard deviations (:func:`~.identifiability.assess`;
         empty when no finite-element run was allowed or needed).
@@ -692,13 +770,15 @@ def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
                 if k in recorded:
                     std[k], source[k] = float(recorded[k]), FROM_FE
             loose = [k for k in loose if not std[k] <= DETERMINED * abs(rung.parameters[k])]
-    reasons = {k: f"{k} = {rung.parameters[k]:.3g} +- {std.get(k, math.nan):.2g}: not determined by this curve"
-                  + suggestion(k, rung.parameters[k], predictions) for k in loose}
+    reasons = {k: UnitText("{name} = {value:.3g} +- {sd:.2g}: not determined by this curve{how}", name=Name(k),
+                           value=Quantity(rung.parameters[k], k), sd=Quantity(std.get(k, math.nan), k),
+                           how=suggestion(k, rung.parameters[k], predictions)) for k in loose}
     for k in rung.at_bounds:
         if at_physical_limit(rung.bound_model, rung.x, k):
             continue
-        reasons.setdefault(k, f"{k} = {rung.fit_parameters.get(k, math.nan):.4g} at the edge of its range: "
-                              "refitted from other starts and still there")
+        reasons.setdefault(k, UnitText("{name} = {value:.4g} at the edge of its range: refitted from other starts and "
+                                       "still there", name=Name(k), value=Quantity(rung.fit_parameters.get(k, math.nan),
+                                                                                   k)))
     return std, source, reasons, predictions
 
 
@@ -872,6 +952,8 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     # the last rung's standard deviations, as they decide what the curve determines (finite-element
     # derivatives where the fit leaves a parameter loose): its one set of numbers everywhere
     std, std_source, not_determined, predictions = determine(fitter, final)
+    # fewer points in contact than the last rung's parameters need to be judged (5 each): said in a note
+    notes += points_flags(contact_points(data), final.n_free)
     if std != final.std:
         scores.rungs[key] = dataclasses.replace(final, std=std)
 

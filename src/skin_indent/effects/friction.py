@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .base import WEIGHED, Effect, EffectParameter, ForwardSpec
+from ..measurement.scale import Quantity, UnitText
 from ..protocol import Protocol
 from ..response_surface import default_cache_dir
 from ..response_surface import default_settings
@@ -90,7 +91,9 @@ class Friction(Effect):
 
         ``diagnosis`` gives the prepared data, the radius and the error model
         (``sigma(force)``); ``best`` is the best-fitting model (its parameters, prediction
-        and ``model``/``x`` for the (E, nu) Jacobian columns).
+        and ``model``/``x`` for the (E, nu) Jacobian columns). The largest change of the
+        force (mN) is a :class:`~skin_indent.measurement.scale.UnitText` field: the text reads
+        in the units of the curve's scale.
         """
         nu = float(best.parameters.get("nu", 0.45))
         d = diagnosis.data
@@ -116,7 +119,8 @@ class Friction(Effect):
         gain = float(np.sum((b - A @ coef) ** 2))
         change = float(np.max(np.abs(delta)))
         if gain < DETECTABLE:
-            return (f"full stick changes the force by at most {change:.2g} mN at nu = {nu:.2f}, and refitting E "
-                    f"absorbs all but a chi-square of {gain:.2g} (< {DETECTABLE:g})")
+            return UnitText("full stick changes the force by at most {change:.2g} at nu = {nu:.2f}, and refitting E "
+                            "absorbs all but a chi-square of {gain:.2g} (< {detectable:g})",
+                            change=Quantity(change, "mN"), nu=nu, gain=gain, detectable=DETECTABLE)
         return (f"full stick could change this curve beyond the noise (chi-square {gain:.3g} after refitting E and "
                 f"nu, at nu = {nu:.2f}), but no friction model is fitted yet")

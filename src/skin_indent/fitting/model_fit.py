@@ -27,7 +27,7 @@ from .identification import hertz_modulus, run_method
 from .knowledge import DETERMINED_BY
 from .multistart import Fitter, evidence
 from .sample_fit import sample_fit_of
-from .scale_checks import MISFIT_FLAG, check_points
+from .scale_checks import MISFIT_FLAG
 from ..models import HertzModel
 from ..models.composed import at_physical_limit
 from ..runtime.context import context_of
@@ -203,8 +203,7 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
     target = fitter.model(effects)
     fitter.check_names(target)
-    check_points(fitter.data if len(curves) == 1 else _Points(fitter.data),
-                 len(target.parameter_names) - len(fitter.held(target)))
+    fitter.check_points(target)
     for i in range(len(effects)):  # the rungs below, as a diagnosis climbs to it: the same warm starts
         try:
             fitter.fit(effects[:i])
@@ -214,16 +213,6 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     if len(curves) > 1:
         return sample_fit_of(rung, fitter, noise_sources=sources)
     return curve_fit_of(rung, fitter, noise_source=sources[0])
-
-
-class _Points:
-    """The points in contact of several curves, as :func:`~.scale_checks.check_points` counts them."""
-
-    def __init__(self, curves):
-        self.curves = curves
-        self.source = curves.source
-        self.contact_guess_mm = -np.inf
-        self.depth_mm = np.concatenate([c.depth_mm[c.depth_mm > c.contact_guess_mm] for c in curves])
 
 
 def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:

@@ -17,11 +17,13 @@ from ..inverse import fit_least_squares
 from ..inverse.residuals import analyse_residuals, describe_structure
 from ..inverse.result import jacobian_covariance
 from ..measurement import CurveSet
+from ..measurement.scale import Quantity, Unit, UnitText, joined
 from ..models import ComposedModel, JointModel
 from ..models.joint import curve_name, split_name
 from ..runtime.json_io import jsonable
 from .identification import hertz_modulus
 from .knowledge import held_coordinates, prior_rows, prior_summary
+from .scale_checks import check_points
 from .surfaces import elastic_core
 
 log = logging.getLogger(__name__)
@@ -71,7 +73,8 @@ class Rung(IdentificationResult):
         The residual passes the whiteness tests at the noise level.
     analysis : ResidualAnalysis
     structure : str
-        Where the residual departs from the noise, in words.
+        Where the residual departs from the noise, in words (:func:`structure_sentence`: depths in
+        mm as a ``str``, a :class:`~skin_indent.measurement.scale.UnitText` that reads in any units).
     bound_model : ComposedModel
         The fitted force model, ``x`` its fitted vector.
     forward_runs : int
@@ -272,6 +275,19 @@ class Fitter:
         if unknown:
             raise ValueError(f"{', '.join(unknown)}: not a parameter of {model.name} (its parameters: "
                              f"{', '.join(dict.fromkeys((*model.model_parameters(model.bounds[0]), )))})")
+
+    def check_points(self, model) -> None:
+        """Refuse to fit ``model`` to fewer points in contact than its free parameters need
+        (:func:`~.scale_checks.check_points`: ``n_free + 2``, the fixed ones not counted).
+
+        Raises
+        ------
+        MeasurementError
+            One line naming the count, the model and what it needs: a diagnosis reports it as the
+            curve's error for the given model, and a candidate with more parameters than the curve
+            can take as not fitted (``untried``, with this reason).
+        """
+        check_points(self.data, len(model.parameter_names) - len(self.held(model)), model=model.name)
 
     def core(self, effects, k: int = 0):
         """The elastic force model of these effects for curve ``k`` (cached per set of elastic effects
@@ -608,6 +624,7 @@ class Fitter:
         if key in self.fits:
             return self.fits[key]
         model = self.model(key)
+        self.check_points(model)
         d = self.data
         known = {"fixed": self.held(model) or None, "priors": self.prior_terms(model) or None}
         starts = self.starts(model, key)
@@ -744,8 +761,8 @@ class Fitter:
         for k, (c, sl) in enumerate(zip(self.curves, self.data.slices)):
             text = structure_sentence(c, residual[sl], sigma[sl])
             if text != NO_STRUCTURE:
-                parts.append(f"curve {k + 1} ({c.source}): {text}")
-        return "; ".join(parts) if parts else NO_STRUCTURE
+                parts.append(joined("", [f"curve {k + 1} ({c.source}): ", text]))
+        return joined("; ", parts) if parts else NO_STRUCTURE
 
 
 def in_loop(model) -> bool:
@@ -800,7 +817,16 @@ def _cost(result) -> float:
 
 
 def structure_sentence(data, residual, sigma) -> str:
-    """Where the residual departs from the noise, per segment, in words."""
+    """Where the residual departs from the noise, per segment, in words.
+
+    Returns
+    -------
+    str
+        :data:`NO_STRUCTURE`, or the ranges where the model is too soft or too stiff (depths, mm;
+        times of a hold, s), a :class:`~skin_indent.measurement.scale.UnitText` when it holds
+        depths: in package units as a ``str``, in the units of the curve's scale where a text
+        shows it (:func:`~skin_indent.measurement.scale.shown_in`).
+    """
     parts = []
     noise = float(np.median(sigma))
     for kind, label in (("approach", "loading"), ("hold", "hold"), ("retract", "unloading")):
@@ -812,7 +838,9 @@ def structure_sentence(data, residual, sigma) -> str:
             text = [f"too {r['sign'].split()[1]} from {r['from_mm']:.3g} to {r['to_mm']:.3g} s" for r in ranges]
         else:
             ranges = describe_structure(data.depth_mm[sel], residual[sel], noise)
-            text = [f"too {r['sign'].split()[1]} from {r['from_mm']:.3g} to {r['to_mm']:.3g} mm" for r in ranges]
+            text = [UnitText("too {sign} from {a:.3g} to {b:.3g} {unit}", sign=r["sign"].split()[1],
+                             a=Quantity(r["from_mm"], "from_mm"), b=Quantity(r["to_mm"], "to_mm"), unit=Unit("mm"))
+                    for r in ranges]
         if text:
-            parts.append(f"on {label}: model " + ", ".join(text))
-    return "; ".join(parts) if parts else NO_STRUCTURE
+            parts.append(joined("", [f"on {label}: model ", joined(", ", text)]))
+    return joined("; ", parts) if parts else NO_STRUCTURE

@@ -80,13 +80,24 @@ def soft_min_points(n_free: int) -> int:
 
 
 def contact_points(prepared, contact_mm: float | None = None) -> int:
-    """Prepared points deeper than the contact point (default the preparation's guess)."""
+    """Prepared points deeper than the contact point (default the preparation's guess); for several
+    curves of one sample (a :class:`~skin_indent.measurement.CurveSet`), every curve's beyond its own guess."""
+    if contact_mm is None and hasattr(prepared, "curves"):
+        return sum(contact_points(c) for c in prepared.curves)
     c = prepared.contact_guess_mm if contact_mm is None else contact_mm
     return int(np.count_nonzero(np.asarray(prepared.depth_mm) > c))
 
 
-def check_points(prepared, n_free: int) -> None:
+def check_points(prepared, n_free: int, model: str | None = None) -> None:
     """Refuse a curve with fewer points in contact than :func:`min_points` for ``n_free`` parameters.
+
+    Parameters
+    ----------
+    prepared : PreparedCurve or CurveSet
+    n_free : int
+        Parameters fitted.
+    model : str, optional
+        The model fitted (``neo-hooke+layer``), named in the message.
 
     Raises
     ------
@@ -96,9 +107,9 @@ def check_points(prepared, n_free: int) -> None:
     n = contact_points(prepared)
     if n < min_points(n_free):
         raise MeasurementError(
-            f"{prepared.source}: {n} point(s) in contact for {n_free} fitted parameter(s), at least "
-            f"{min_points(n_free)} needed: a window that cuts the curve, a decimated export, or hold more "
-            "parameters fixed (--fix nu=0.5)")
+            f"{prepared.source}: {n} point(s) in contact for {n_free} fitted parameter(s)"
+            + (f" of {model}" if model else "") + f", at least {min_points(n_free)} needed: a window that cuts the "
+            "curve, a decimated export, or hold more parameters fixed (--fix nu=0.5)")
 
 
 def _signed(name: str) -> bool:

@@ -2,9 +2,9 @@
 
 One rule, :func:`afm_scale`, decides; everything that depends on the scale asks it:
 
-- the text of a fit, the lines of a batch and the plots of a fit show lengths, forces and
-  moduli in the units of the scale (:func:`display_units`: um, nN and Pa for AFM-scale
-  curves, mm, mN and kPa for skin);
+- the text of a fit, the lines of a batch, the plots of a fit and the text, sentences, HTML
+  page and figures of a diagnosis show lengths, forces and moduli in the units of the scale
+  (:func:`display_units`: um, nN and Pa for AFM-scale curves, mm, mN and kPa for skin);
 - the default of Poisson's ratio of :func:`skin_indent.fitting.fit`: held at 0.5 (the
   incompressible limit, the AFM field's convention) at AFM scale, fitted at skin scale as
   in Delalleau et al. (2006).
@@ -14,9 +14,10 @@ names: ``E_kPa``, ``contact_point_mm``, ``noise_mN``), so tables of mixed folder
 table and read back the same way.
 
 Notes and flags that hold numbers (the incompressible limit's extrapolation, a value held, a
-prior, a parameter its curve does not determine) are :class:`UnitText`: a ``str`` in package
+prior, a parameter its curve does not determine, where a model departs from a curve, the
+measurement that would separate two explanations) are :class:`UnitText`: a ``str`` in package
 units (what JSON keeps) that :func:`shown_in` writes in the units of the scale (what the text
-of a fit prints), from the same numbers.
+of a fit or a diagnosis prints), from the same numbers.
 """
 
 from __future__ import annotations
@@ -24,8 +25,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["AFM_RADIUS_MM", "AFM_UNITS", "SKIN_UNITS", "DisplayUnits", "Name", "Quantity", "UnitText", "afm_scale",
-           "display_units", "format_modulus", "shown_in"]
+__all__ = ["AFM_RADIUS_MM", "AFM_UNITS", "PACKAGE_UNITS", "SKIN_UNITS", "DisplayUnits", "Name", "Quantity", "Unit",
+           "UnitText", "afm_scale", "display_units", "format_modulus", "joined", "shown_in"]
 
 #: spheres smaller than this radius (mm) are AFM or cell-scale probes: colloidal AFM probes and
 #: nanoindenter tips are 1-250 um in radius (Chiaro 3-250 um), skin and tissue indenters use
@@ -101,6 +102,8 @@ def _curve_suffix(name: str) -> tuple[str, str]:
 
 SKIN_UNITS = DisplayUnits("mm", "mN", "kPa", 1.0, 1.0, 1.0)
 AFM_UNITS = DisplayUnits("um", "nN", "Pa", 1e3, 1e6, 1e3)
+#: the package units (mm, mN, kPa), those of every JSON, TSV and CSV output: :data:`SKIN_UNITS`
+PACKAGE_UNITS = SKIN_UNITS
 
 
 def display_units(radius_mm: float) -> DisplayUnits:
@@ -168,6 +171,31 @@ class _Shown:
 
 
 @dataclass(frozen=True)
+class Unit:
+    """A unit's name in a :class:`UnitText`, after numbers written without one (``"from {a:.3g} to
+    {b:.3g} {unit}"``): the package unit (``"mm"``, ``"mN"`` or ``"kPa"``) written as the units shown
+    name it (``"um"``, ``"nN"``, ``"Pa"`` in :data:`AFM_UNITS`).
+
+    Parameters
+    ----------
+    unit : {"kPa", "mm", "mN"}
+        The package unit.
+    """
+
+    unit: str
+
+    def __post_init__(self):
+        if self.unit not in _KINDS:
+            raise ValueError(f"Unit takes one of {', '.join(_KINDS)}, got {self.unit!r}")
+
+    def shown(self, units: DisplayUnits) -> str:
+        return getattr(units, _KINDS[self.unit][0])
+
+    def __format__(self, spec: str) -> str:
+        return format(self.unit, spec)
+
+
+@dataclass(frozen=True)
 class Name:
     """A parameter's name in a :class:`UnitText`: written with the unit suffix of the units shown
     (``E_kPa`` -> ``E_Pa`` in AFM units, :meth:`DisplayUnits.name`)."""
@@ -194,8 +222,9 @@ class UnitText(str):
     template : str
         A :meth:`str.format` template.
     **fields
-        Its fields: :class:`Quantity`, :class:`Name` (a parameter's name) or any other value
-        (written as it is).
+        Its fields: :class:`Quantity`, :class:`Name` (a parameter's name), :class:`Unit` (a unit's
+        name), another :class:`UnitText` (written in the same units) or any other value (written
+        as it is).
     """
 
     def __new__(cls, template: str, **fields):
@@ -205,8 +234,7 @@ class UnitText(str):
 
     def in_units(self, units: DisplayUnits) -> str:
         """The text in ``units`` (a plain ``str``)."""
-        return self.template.format(**{k: (v.shown(units) if isinstance(v, (Quantity, Name)) else v)
-                                        for k, v in self.fields.items()})
+        return self.template.format(**{k: _field_in(v, units) for k, v in self.fields.items()})
 
     def __reduce__(self):  # pickled (to worker processes) with its template and fields
         return _unit_text, (self.template, self.fields)
@@ -214,6 +242,32 @@ class UnitText(str):
 
 def _unit_text(template: str, fields: dict) -> UnitText:
     return UnitText(template, **fields)
+
+
+def _field_in(field, units: DisplayUnits):
+    """A field of a :class:`UnitText` as written in ``units``."""
+    if isinstance(field, UnitText):
+        return field.in_units(units)
+    if isinstance(field, (Quantity, Name, Unit)):
+        return field.shown(units)
+    return field
+
+
+def joined(separator: str, parts) -> str:
+    """``separator.join(parts)``, a :class:`UnitText` when a part is one (each part a field of it, so
+    that the whole reads in any units), else a plain ``str``.
+
+    Parameters
+    ----------
+    separator : str
+    parts : iterable of str
+        Plain texts and :class:`UnitText`.
+    """
+    parts = list(parts)
+    if not any(isinstance(p, UnitText) for p in parts):
+        return separator.join(parts)
+    sep = separator.replace("{", "{{").replace("}", "}}")
+    return UnitText(sep.join(f"{{p{i}}}" for i in range(len(parts))), **{f"p{i}": p for i, p in enumerate(parts)})
 
 
 def shown_in(text, units: DisplayUnits) -> str:

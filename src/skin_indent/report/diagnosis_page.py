@@ -15,6 +15,9 @@ page of any number of them with one provenance.
 Every number comes from the :class:`~skin_indent.diagnosis.workflow.Diagnosis` as it is:
 one rung per model (parameters, standard deviations, RMS, BIC), the same as its text
 report and its JSON; :func:`page_context` formats them, the template only places them.
+The page and the figures show them in the units of the curve's scale, as the text report
+does (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`: um, nN and Pa for an AFM-scale
+curve, mm, mN and kPa for skin).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import numpy as np
 
 from ..runtime.atomic import atomic_write
 from ..diagnosis.workflow import FROM_FE
+from ..measurement.scale import shown_in
 from ..runtime.json_io import dumps
 from .. import __version__
 from ._save import save_figure
@@ -64,7 +68,8 @@ def fit_figure(diag, fig=None):
 
     Models are drawn in the order of :func:`_models` with their own line styles and
     markers (the later ones dashed, dotted and thinner, on top), and a model whose curve
-    is the same as an earlier one's says so in the legend ("same curve as ...").
+    is the same as an earlier one's says so in the legend ("same curve as ..."). Depth and
+    force in the units of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`).
 
     Parameters
     ----------
@@ -77,25 +82,28 @@ def fit_figure(diag, fig=None):
     matplotlib.figure.Figure
         ``fig`` when given.
     """
-    d = diag.data
+    d, u = diag.data, diag.units
     models = _models(diag)
     fig = _canvas(fig, (7, 4.5))
     ax = fig.subplots()
-    ax.plot(d.depth_mm, d.force_mN, ".", ms=3, color="0.4", label="measurement")
+    depth = np.asarray(d.depth_mm) * u.per_mm
+    ax.plot(depth, np.asarray(d.force_mN) * u.per_mN, ".", ms=3, color="0.4", label="measurement")
     names = [model_label(f.model) for f in models]
     same = same_curve_as([f.prediction_mN for f in models], names)
     for f, name, style in zip(models, names, line_styles(len(models), np.size(d.depth_mm))):
-        ax.plot(d.depth_mm, f.prediction_mN, **style,
-                label=f"{name} (RMS {f.rms_mN:.3g} mN)" + (f": same curve as {same[name]}" if name in same else ""))
-    ax.set_xlabel("depth (mm)")
-    ax.set_ylabel("force (mN)")
+        ax.plot(depth, np.asarray(f.prediction_mN) * u.per_mN, **style,
+                label=f"{name} (RMS {f.rms_mN * u.per_mN:.3g} {u.force})"
+                + (f": same curve as {same[name]}" if name in same else ""))
+    ax.set_xlabel(f"depth ({u.length})")
+    ax.set_ylabel(f"force ({u.force})")
     ax.set_title(f"{Path(d.source).name}: verdict {diag.verdict}" + (" (provisional)" if diag.provisional else ""))
     ax.legend(fontsize=8)
     return fig
 
 
 def residual_figure(diag, fig=None):
-    """The residual of each model against depth (and time), with the +-2 sd noise band (``residuals.png``).
+    """The residual of each model against depth (and time), with the +-2 sd noise band (``residuals.png``),
+    in the units of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`).
 
     Parameters
     ----------
@@ -107,22 +115,22 @@ def residual_figure(diag, fig=None):
     -------
     matplotlib.figure.Figure
     """
-    d = diag.data
+    d, u = diag.data, diag.units
     models = _models(diag)
     timed = d.time_s is not None
     fig = _canvas(fig, (9 if timed else 7, 2.2 * len(models) + 0.4))
     axes = fig.subplots(len(models), 2 if timed else 1, squeeze=False, sharex="col")
-    band = 2.0 * diag.noise_mN
-    xs = [(d.depth_mm, "depth (mm)")] + ([(d.time_s, "time (s)")] if timed else [])
+    band = 2.0 * diag.noise_mN * u.per_mN
+    xs = [(np.asarray(d.depth_mm) * u.per_mm, f"depth ({u.length})")] + ([(d.time_s, "time (s)")] if timed else [])
     for row, f in zip(axes, models):
         for ax, (x, label) in zip(row, xs):
             ax.axhspan(-band, band, color="tab:green", alpha=0.15, lw=0, label="noise: ±2 sd")
             for kind, color in (("approach", "tab:blue"), ("hold", "tab:orange"), ("retract", "tab:red")):
                 sel = d.kind == kind
                 if np.any(sel):
-                    ax.plot(x[sel], f.residual_mN[sel], ".", ms=3, color=color, label=kind)
+                    ax.plot(x[sel], np.asarray(f.residual_mN)[sel] * u.per_mN, ".", ms=3, color=color, label=kind)
             ax.axhline(0.0, color="k", lw=0.6)
-            ax.set_ylabel("residual (mN)", fontsize=8)
+            ax.set_ylabel(f"residual ({u.force})", fontsize=8)
             ax.set_title(f"{model_label(f.model)}: {'white' if f.white else 'structured'}", fontsize=9)
 
     for ax, (_, label) in zip(axes[-1], xs):
@@ -132,7 +140,8 @@ def residual_figure(diag, fig=None):
 
 
 def ladder_figure(diag, fig=None):
-    """RMS and BIC of each model (``ladder.png``): the models by their names, BIC lower is better.
+    """RMS and BIC of each model (``ladder.png``): the models by their names, BIC lower is better; the
+    RMS in the force unit of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`).
 
     Parameters
     ----------
@@ -145,6 +154,7 @@ def ladder_figure(diag, fig=None):
     matplotlib.figure.Figure
     """
     models = _models(diag)
+    u = diag.units
     fig = _canvas(fig, (9, 4.2))
     a1, a2 = fig.subplots(1, 2)
     names = [model_label(f.model).replace(" + ", "\n+ ") for f in models]  # one effect per line
@@ -153,16 +163,16 @@ def ladder_figure(diag, fig=None):
         x = np.arange(len(models))
         for j, (c, noise) in enumerate(zip(diag.curves, diag.noises_mN)):
             a1.bar(x + (j - (k - 1) / 2) * width, [f.curve_rms_mN[j] / noise for f in models], width,
-                   color=f"C{j}", label=f"curve {j + 1} (R = {c.radius_mm:g} mm)")
+                   color=f"C{j}", label=f"curve {j + 1} (R = {c.radius_mm * u.per_mm:g} {u.length})")
         a1.set_xticks(x, names)
         a1.axhline(1.0, color="tab:green", ls="--", label="noise")
         a1.axhline(1.3, color="tab:green", ls=":", label="1.3 x noise")
         a1.set_ylabel("RMS residual / the curve's noise")
     else:
-        a1.bar(names, [f.rms_mN for f in models], color="tab:blue")
-        a1.axhline(diag.noise_mN, color="tab:green", ls="--", label="noise")
-        a1.axhline(1.3 * diag.noise_mN, color="tab:green", ls=":", label="1.3 x noise")
-        a1.set_ylabel("RMS residual (mN)")
+        a1.bar(names, [f.rms_mN * u.per_mN for f in models], color="tab:blue")
+        a1.axhline(diag.noise_mN * u.per_mN, color="tab:green", ls="--", label="noise")
+        a1.axhline(1.3 * diag.noise_mN * u.per_mN, color="tab:green", ls=":", label="1.3 x noise")
+        a1.set_ylabel(f"RMS residual ({u.force})")
     a1.set_title("misfit: down to the noise is enough", fontsize=9)
     a1.legend(fontsize=8)
     a2.bar(names, [f.bic for f in models], color="tab:purple")
@@ -240,7 +250,10 @@ def _script_json(prov) -> str:
 
 def page_context(diag, figure_paths=()) -> dict:
     """The entry of one diagnosis in the page's template: its numbers, formatted as its text report
-    formats them (RMS 4 significant digits, BIC 1 decimal, parameters and sd 4 significant digits).
+    formats them (RMS 4 significant digits, BIC 1 decimal, parameters and sd 4 significant digits), in
+    the units of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`: the radius,
+    noise and RMS in ``length`` and ``force``, the parameters renamed as
+    :meth:`~skin_indent.measurement.scale.DisplayUnits.name` renames them and converted).
 
     Parameters
     ----------
@@ -254,25 +267,28 @@ def page_context(diag, figure_paths=()) -> dict:
     """
     rows = []
     joint = getattr(diag, "joint", False)
+    u = diag.units
+    kL, kF = u.per_mm, u.per_mN
     for f in _models(diag):
         fe = diag.std_source if f is diag.current else {}
-        params = [{"name": k, "value": _fmt(v), "std": _fmt(f.std.get(k, math.nan)), "fe": fe.get(k) == FROM_FE}
-                  for k, v in f.parameters.items()]
-        rms = ", ".join(f"{v:.4g}" for v in f.curve_rms_mN) if joint else f"{f.rms_mN:.4g}"
+        params = [{"name": u.name(k), "value": _fmt(v * u.factor(k)), "std": _fmt(f.std.get(k, math.nan) * u.factor(k)),
+                   "fe": fe.get(k) == FROM_FE} for k, v in f.parameters.items()]
+        rms = ", ".join(f"{v * kF:.4g}" for v in f.curve_rms_mN) if joint else f"{f.rms_mN * kF:.4g}"
         rows.append({"model": f.model, "rms": rms, "bic": f"{f.bic:.1f}", "white": bool(f.white),
-                     "parameters": params, "structure": f.structure})
-    sample = [{"number": k + 1, "source": str(c.source), "points": c.n, "radius": f"{c.radius_mm:g}",
-               "noise": f"{s:.4g}", "noise_source": w}
+                     "parameters": params, "structure": shown_in(f.structure, u)})
+    sample = [{"number": k + 1, "source": str(c.source), "points": c.n, "radius": f"{c.radius_mm * kL:g}",
+               "noise": f"{s * kF:.4g}", "noise_source": w}
               for k, (c, s, w) in enumerate(zip(diag.curves, diag.noises_mN, diag.noise_sources))] if joint else []
     return {
         "source": str(diag.data.source), "name": " + ".join(Path(c.source).name for c in diag.curves) if joint
         else Path(diag.data.source).name, "verdict": diag.verdict, "sample": sample,
-        "provisional": bool(diag.provisional), "sentence": diag.sentence(), "untried": list(diag.untried.items()),
-        "noise": ", ".join(f"{v:.4g}" for v in diag.noises_mN) if joint else f"{diag.noise_mN:.4g}",
+        "provisional": bool(diag.provisional), "sentence": diag.sentence(u), "untried": list(diag.untried.items()),
+        "noise": ", ".join(f"{v * kF:.4g}" for v in diag.noises_mN) if joint else f"{diag.noise_mN * kF:.4g}",
         "noise_source": diag.noise_source, "points": diag.data.n,
         "binned": 1 if joint else diag.data.binned, "n_effective": f"{diag.n_effective:.1f}",
-        "radius": ", ".join(f"{c.radius_mm:g}" for c in diag.curves) if joint else f"{diag.radius_mm:g}",
-        "models": rows, "not_detectable": list(diag.not_detectable.items()),
+        "radius": ", ".join(f"{c.radius_mm * kL:g}" for c in diag.curves) if joint else f"{diag.radius_mm * kL:g}",
+        "length": u.length, "force": u.force,
+        "models": rows, "not_detectable": [(k, shown_in(v, u)) for k, v in diag.not_detectable.items()],
         "fe_note": FROM_FE if FROM_FE in diag.std_source.values() else "",
         "figures": [{"name": p.name, "alt": p.stem, "base64": base64.b64encode(p.read_bytes()).decode()}
                     for p in map(Path, figure_paths)],

@@ -118,7 +118,8 @@ def sample_diagnosis_figure(diag):
     Top: the curve and the last rung's model (solid), the other explanations the diagnosis
     climbed (dashed). Bottom: the residual of every rung of the ladder, each its own line
     style, with the curve's own noise band (±2 sd); the ladder's models share one colour
-    per rung across the columns.
+    per rung across the columns. In the units of the diagnosis
+    (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`: the first curve's scale).
 
     Parameters
     ----------
@@ -134,7 +135,7 @@ def sample_diagnosis_figure(diag):
     curves = diag.curves or [diag.data]
     noises = diag.noises_mN or [diag.noise_mN]
     slices = diag.data.slices if len(curves) > 1 else [slice(0, diag.data.n)]
-    u = display_units(curves[0].radius_mm)
+    u = diag.units  # the first curve's scale decides
     n = len(curves)
     fig = Figure(figsize=(4.6 * n, 6.4), layout="constrained")
     axes = fig.subplots(2, n, sharex="col", height_ratios=(2.2, 2.0), squeeze=False)
