@@ -8,6 +8,7 @@
     python benchmarks/diagnose.py --speed      # issue 29: the forearm-like diagnosis from an empty cache,
                                                # with its surfaces cached and run again, in forward curves
     python benchmarks/diagnose.py --speed --joint  # and the forearm-like pair diagnosed together (--sample)
+    python benchmarks/diagnose.py --demo       # issue 29: skin-indent demo from an empty cache, in forward curves
 
 ``--speed`` (issue 29) runs ``skin-indent diagnose`` on the bundled forearm-like curve
 (``--json``, default options, ``SKIN_INDENT_CACHE`` a fresh folder) three times, each a fresh
@@ -267,6 +268,42 @@ def speed(cache: Path, rounds: int, joint: bool = False) -> dict:
     return result
 
 
+def demo(cache: Path, rounds: int) -> dict:
+    """Issue 29: ``skin-indent demo`` from an empty cache (its diagnosis loop included) in forward curves,
+    and the seconds to its first line of results (the paper's part comes first)."""
+    import shutil
+    import statistics
+
+    shutil.rmtree(cache, ignore_errors=True)
+    cache.mkdir(parents=True)
+    whole, inside = forward_units(rounds)
+    t = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, "-u", "-m", "skin_indent", "demo", "--out", str(cache / "out")],
+                            env=_env(cache), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    lines = []
+    for line in proc.stdout:
+        lines.append((time.perf_counter() - t, line.rstrip()))
+    proc.wait()
+    wall = time.perf_counter() - t
+    if proc.returncode != 0:
+        raise RuntimeError(f"demo failed ({proc.returncode})")
+    w, i = forward_units(rounds)
+    unit = statistics.median(whole + w)
+    first = next(s for s, line in lines if line.lstrip().startswith(("ekf-paper", "lsq")))
+    result = {"date": _dt.datetime.now().isoformat(timespec="seconds"), "cpus": os.cpu_count(),
+              "unit_s": unit, "wall_s": wall, "units": wall / unit, "first_result_s": first,
+              "fe_runs": count_runs(cache), "load_end": os.getloadavg(), "output": lines}
+    print(f"demo from an empty cache: {wall:.1f} s = {wall / unit:.1f} forward curves (target <= 120: "
+          f"{'met' if wall / unit <= 120 else 'NOT met'}), {result['fe_runs']} finite-element runs; first results "
+          f"after {first:.1f} s; unit {unit:.2f} s")
+    for s, line in lines:
+        print(f"  {s:7.1f} s  {line}")
+    out = HERE / "results" / "demo_speed.json"
+    out.parent.mkdir(exist_ok=True)
+    out.write_text(json.dumps(result, indent=1, default=float))
+    return result
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument("--cached", action="store_true", help="skip the build from nothing")
@@ -276,10 +313,15 @@ def main() -> None:
                         help="issue 29: empty cache, surfaces cached, the same command again, in forward curves")
     parser.add_argument("--joint", action="store_true",
                         help="with --speed: also the forearm-like pair (R = 6.22 and 3.11 mm) diagnosed together")
+    parser.add_argument("--demo", action="store_true",
+                        help="issue 29: skin-indent demo from an empty cache (its diagnosis loop too), in forward curves")
     parser.add_argument("--rounds", type=int, default=3, help="forward curves timed before, between and after (--speed)")
     args = parser.parse_args()
     if args.ladder:
         ladder(args.cache.with_name(args.cache.name + "_ladder"))
+        return
+    if args.demo:
+        demo(args.cache.with_name(args.cache.name + "_demo"), args.rounds)
         return
     if args.speed:
         speed(args.cache.with_name(args.cache.name + "_speed"), args.rounds, joint=args.joint)
