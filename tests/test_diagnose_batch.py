@@ -222,7 +222,7 @@ def _short(folder, name: str, rows: int):
     return path
 
 
-def test_a_curve_with_too_few_points_says_why_in_its_row(gallery_cache, diagnosis_surfaces, tmp_path, capsys,
+def test_a_curve_with_too_few_points_says_why_in_its_row(gallery_cache, tmp_path, capsys,
                                                           monkeypatch):
     """A 5-point curve (4 in contact) and a 4-point one (3 in contact): no row has a bare NaN. Without a noise
     level, each row's error says the points are too few to estimate it; with one, the 4-point curve is refused
@@ -263,6 +263,26 @@ def test_a_curve_with_too_few_points_says_why_in_its_row(gallery_cache, diagnosi
     assert main(["diagnose", str(four), "--noise", "0.05", "--surfaces-only", "--max-rungs", "1", "-q"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "3 point(s) in contact for 2 fitted parameter(s) of neo-hooke, at least 4" in err[0]
+
+
+def test_a_model_too_large_for_the_curve_is_refused_before_its_surface_is_built(gallery_cache, tmp_path,
+                                                                                 monkeypatch):
+    """The 5-point curve's candidates with more parameters than its points can take (layer, stiffening)
+    are refused from their parameter count: no response surface of theirs is built for nothing."""
+    import skin_indent.fitting.multistart as multistart
+
+    built = []
+    real = multistart.elastic_core
+
+    def watched(effects, **kw):
+        built.append(tuple(effects))
+        return real(effects, **kw)
+
+    monkeypatch.setattr(multistart, "elastic_core", watched)
+    d = diagnose(load_csv(_short(tmp_path, "five", 5)), context=Context(cache_dir=gallery_cache, workers=1),
+                 noise_mN=0.05, **CHEAP)
+    assert set(d.untried) == {"offset", "layer", "stiffening"}
+    assert built and not any(e in key for key in built for e in ("layer", "stiffening")), built
 
 
 def test_rows_in_text_and_json():

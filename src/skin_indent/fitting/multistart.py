@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, instances, numbered
+from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, Model, instances, numbered
 from ..inverse import IdentificationResult
 from ..inverse import fit_least_squares
 from ..inverse.residuals import analyse_residuals, describe_structure
@@ -288,6 +288,24 @@ class Fitter:
             can take as not fitted (``untried``, with this reason).
         """
         check_points(self.data, len(model.parameter_names) - len(self.held(model)), model=model.name)
+
+    def check_points_before_building(self, effects: tuple) -> None:
+        """:meth:`check_points` for the model of ``effects`` before it is built (its elastic core can
+        be a response surface to build: a curve too short for the model pays nothing for it).
+
+        The parameters are counted from the effects (:class:`~skin_indent.effects.Model`: the same
+        names as the built model's, one per fit coordinate) less those held. Where that count needs
+        the built model (several curves, each with its own contact point; a held name the model
+        does not have, as it reports its parameters) nothing is checked here:
+        :meth:`check_points` checks the built model.
+        """
+        if self.joint:
+            return
+        full = self.full(effects)
+        names = Model(full, float(self.data.radius_mm)).parameter_names
+        if any(k not in names for k in self.fixed):
+            return
+        check_points(self.data, len(names) - len(self.fixed), model="neo-hooke" + "".join(f"+{e}" for e in full))
 
     def core(self, effects, k: int = 0):
         """The elastic force model of these effects for curve ``k`` (cached per set of elastic effects
@@ -589,6 +607,7 @@ class Fitter:
                 done[key] = self.fits[key]
                 continue
             try:
+                self.check_points_before_building(key)  # a curve too short for it builds nothing
                 cores = self.model(key).cores  # the cores are made here, in this thread
             except ValueError as err:
                 done[key] = err
@@ -623,6 +642,7 @@ class Fitter:
         key = tuple(effects)
         if key in self.fits:
             return self.fits[key]
+        self.check_points_before_building(key)
         model = self.model(key)
         self.check_points(model)
         d = self.data
