@@ -1,4 +1,4 @@
-"""Figures and a self-contained HTML page of a :class:`~skin_indent.diagnosis.workflow.Diagnosis`.
+"""Figures and a self-contained HTML page of a :class:`~skin_indent.diagnosis.result.Diagnosis`.
 
 :func:`write_report` writes ``fit.png`` (measurement and every fitted model),
 ``residuals.png`` (residual of each model against depth, and against time when the
@@ -12,11 +12,11 @@ the package (autoescaped: a file name or a message cannot inject markup). The te
 over curves: :func:`page_context` makes the entry of one diagnosis, :func:`render_page` a
 page of any number of them with one provenance.
 
-Every number comes from the :class:`~skin_indent.diagnosis.workflow.Diagnosis` as it is:
+Every number comes from the :class:`~skin_indent.diagnosis.result.Diagnosis` as it is:
 one rung per model (parameters, standard deviations, RMS, BIC), the same as its text
 report and its JSON; :func:`page_context` formats them, the template only places them.
 The page and the figures show them in the units of the curve's scale, as the text report
-does (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`: um, nN and Pa for an AFM-scale
+does (:attr:`~skin_indent.diagnosis.result.Diagnosis.units`: um, nN and Pa for an AFM-scale
 curve, mm, mN and kPa for skin).
 """
 
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ..runtime.atomic import atomic_write
-from ..diagnosis.workflow import FROM_FE
+from ..diagnosis.criteria import FROM_FE
 from ..measurement.scale import shown_in
 from ..runtime.json_io import dumps
 from .. import __version__
@@ -69,7 +69,7 @@ def fit_figure(diag, fig=None):
     Models are drawn in the order of :func:`_models` with their own line styles and
     markers (the later ones dashed, dotted and thinner, on top), and a model whose curve
     is the same as an earlier one's says so in the legend ("same curve as ..."). Depth and
-    force in the units of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`).
+    force in the units of the diagnosis (:attr:`~skin_indent.diagnosis.result.Diagnosis.units`).
 
     Parameters
     ----------
@@ -103,7 +103,7 @@ def fit_figure(diag, fig=None):
 
 def residual_figure(diag, fig=None):
     """The residual of each model against depth (and time), with the +-2 sd noise band (``residuals.png``),
-    in the units of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`).
+    in the units of the diagnosis (:attr:`~skin_indent.diagnosis.result.Diagnosis.units`).
 
     Parameters
     ----------
@@ -141,7 +141,7 @@ def residual_figure(diag, fig=None):
 
 def ladder_figure(diag, fig=None):
     """RMS and BIC of each model (``ladder.png``): the models by their names, BIC lower is better; the
-    RMS in the force unit of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`).
+    RMS in the force unit of the diagnosis (:attr:`~skin_indent.diagnosis.result.Diagnosis.units`).
 
     Parameters
     ----------
@@ -251,7 +251,7 @@ def _script_json(prov) -> str:
 def page_context(diag, figure_paths=()) -> dict:
     """The entry of one diagnosis in the page's template: its numbers, formatted as its text report
     formats them (RMS 4 significant digits, BIC 1 decimal, parameters and sd 4 significant digits), in
-    the units of the diagnosis (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`: the radius,
+    the units of the diagnosis (:attr:`~skin_indent.diagnosis.result.Diagnosis.units`: the radius,
     noise and RMS in ``length`` and ``force``, the parameters renamed as
     :meth:`~skin_indent.measurement.scale.DisplayUnits.name` renames them and converted).
 

@@ -119,7 +119,7 @@ def sample_diagnosis_figure(diag):
     climbed (dashed). Bottom: the residual of every rung of the ladder, each its own line
     style, with the curve's own noise band (±2 sd); the ladder's models share one colour
     per rung across the columns. In the units of the diagnosis
-    (:attr:`~skin_indent.diagnosis.workflow.Diagnosis.units`: the first curve's scale).
+    (:attr:`~skin_indent.diagnosis.result.Diagnosis.units`: the first curve's scale).
 
     Parameters
     ----------

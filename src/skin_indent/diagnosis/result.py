@@ -1,0 +1,480 @@
+"""The outcome of a diagnosis: :class:`Diagnosis`, its text, sentence and JSON.
+
+A :class:`Diagnosis` is plain data computed by :func:`~.workflow.diagnose`: the ladder of
+fitted rungs, the examinations of the climb (:class:`Step`), the verdict and what the
+data do not determine. Every output reads the same rungs, one per model, in the units
+:attr:`Diagnosis.units` decides once (:mod:`skin_indent.measurement.scale`); the HTML page
+and the figures are drawn from it by :mod:`skin_indent.report`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..effects import EFFECTS
+from ..measurement import PreparedCurve
+from ..measurement.scale import PACKAGE_UNITS, DisplayUnits, display_units, shown_in
+from ..fitting.knowledge import DETERMINED_BY
+from ..fitting.multistart import MODEL_ERROR, Rung
+from ..runtime.json_io import jsonable
+from .criteria import FROM_FE, FROM_FIT, STRONG
+
+def _fmt_params(f: Rung, units: DisplayUnits) -> str:
+    """A rung's parameters as the text of a diagnosis shows them, ``name = value +- sd``, in ``units``
+    (names and values as :meth:`~skin_indent.measurement.scale.DisplayUnits.name` and ``factor`` make
+    them: ``E_Pa = 203.9 +- 1.9`` at AFM scale for ``E_kPa = 0.2039 +- 0.0019``)."""
+    parts = []
+    for k, v in f.parameters.items():
+        s = f.std.get(k, math.nan)
+        name, c = units.name(k), units.factor(k)
+        if math.isinf(v):
+            parts.append(f"{name} = inf (rigid)")
+        else:
+            parts.append(f"{name} = {v * c:.4g}" + ("" if not math.isfinite(s) else f" +- {s * c:.2g}"))
+    return ", ".join(parts)
+
+
+def _listed(items) -> str:
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+# ----------------------------------------------------------------------------- result
+@dataclass
+class Diagnosis:
+    """The outcome of :func:`~.workflow.diagnose` (``to_dict`` gives the JSON of ``skin-indent diagnose --json``).
+
+    Plain data: :func:`~.workflow.diagnose` computes everything, and every output (:meth:`report`,
+    :meth:`sentence`, :meth:`to_dict`, :func:`~.report.write_report`) reads the same rungs,
+    one :class:`Rung` per model (its parameters, standard deviations, RMS and BIC).
+
+    The numbers are held in the package units (mm, mN, kPa). :attr:`units` decides, once, the
+    units the text, the sentences, the HTML page and the figures show them in: um, nN and Pa for
+    an AFM-scale curve, mm, mN and kPa for skin (:func:`~skin_indent.measurement.scale.display_units`
+    of the first curve's sphere radius); :meth:`to_dict` (JSON) keeps the package units.
+
+    Attributes
+    ----------
+    ladder : list of Rung
+        From the base model through the effects added by hand to those the climb added;
+        ``current`` is the last.
+    ranking, not_detectable : list, dict
+        The first examination: the candidates on top of the given model.
+    verdict : str
+        What was missing from the given model: an effect (``"layer"``), several in the
+        order they were added (``"offset+layer"``, ``"layer+layer"``); ``"none"`` when the
+        given model explains the curve to the noise; ``"unexplained"`` when it does not and
+        no effect fitted lowers the BIC by more than :data:`~.criteria.STRONG`; or ``"ambiguous"``
+        when another set of effects explains the curve about as well (``confounded_with``
+        names them, ``suggested_measurement`` says what separates them). ``provisional``
+        says whether combinations were left untried.
+    n_effective : float
+        The effective sample size of every BIC of the diagnosis (one value).
+    steps : list of Step
+        Every examination of the climb.
+    alternatives : list of Rung
+        The end rungs of the other explanations climbed (a beam of :data:`~.criteria.BEAM`).
+    explained : bool
+        The last rung explains the curve to the noise (:func:`~.criteria.explained`).
+    std_source : dict
+        Where each standard deviation of the last rung comes from: :data:`~.criteria.FROM_FIT` (the
+        fit's covariance) or :data:`~.criteria.FROM_FE` (finite-element derivatives at the fitted
+        values, which replace the fit's where they decide whether the parameter is
+        determined).
+    not_determined : dict
+        :meth:`undetermined`.
+    notes : list of str
+        What the verdict rests on that a reader should know: fewer points in contact than the
+        last rung's parameters need to be judged (five per fitted parameter,
+        :func:`~skin_indent.fitting.scale_checks.points_flags`); each is also a flag of the
+        curve's row in a batch (:func:`~skin_indent.diagnosis.diagnose_many`). A given model with
+        more parameters than the points in contact can determine (fewer than ``n_free + 2``) is
+        refused (:class:`~skin_indent.measurement.MeasurementError`), and a candidate that has them
+        is not fitted (``untried``, with the reason).
+    untried : dict
+        Combinations of effects (``"layer+layer"``) that were not fitted, with why: every
+        examination's candidates that could not be fitted, in every explanation climbed,
+        and the candidates on top of a last rung the climb reached at ``max_rungs``
+        without examining it.
+    """
+
+    data: PreparedCurve
+    noise_mN: float
+    noise_source: str
+    radius_mm: float
+    ladder: list
+    ranking: list
+    not_detectable: dict
+    verdict: str
+    confounded_with: list
+    suggested_measurement: str | None
+    n_effective: float
+    notes: list = field(default_factory=list)
+    steps: list = field(default_factory=list)
+    alternatives: list = field(default_factory=list)
+    n_given: int = 0
+    fitter: object = field(default=None, repr=False)
+    explained: bool = False
+    std_source: dict = field(default_factory=dict)
+    not_determined: dict = field(default_factory=dict)
+    untried: dict = field(default_factory=dict)
+    #: the finite-element predictions behind ``not_determined`` (:func:`~.identifiability.assess`)
+    predictions: list = field(default_factory=list, repr=False)
+    #: the candidate effects examined (None: every registered effect)
+    candidates: tuple | None = None
+    #: how the diagnosis was made (:func:`skin_indent.runtime.provenance.provenance`): the API call
+    #: of :func:`~.workflow.diagnose`, its arguments and the curve's data digest
+    provenance: dict = field(default_factory=dict, repr=False)
+    #: the curves diagnosed, in input order (one: ``[data]``), each curve's noise (mN) and its source
+    curves: list = field(default_factory=list, repr=False)
+    noises_mN: list = field(default_factory=list)
+    noise_sources: list = field(default_factory=list)
+
+    @property
+    def current(self) -> Rung:
+        return self.ladder[-1]
+
+    @property
+    def units(self) -> DisplayUnits:
+        """The units the text, sentences, page and figures of the diagnosis are read in: those of the
+        scale of its (first) curve's sphere (:func:`~skin_indent.measurement.scale.display_units`: um,
+        nN and Pa below a radius of 0.5 mm, else mm, mN and kPa). For several curves of one sample,
+        the first curve's scale decides."""
+        first = self.curves[0] if self.curves else self.data
+        return display_units(float(first.radius_mm))
+
+    @property
+    def base(self) -> Rung:
+        return self.ladder[0]
+
+    @property
+    def surfaces(self) -> tuple:
+        """The response surfaces (and finite-element cores) the fits of the diagnosis used, as its
+        provenance records them (:func:`~skin_indent.runtime.provenance.surface_identity`)."""
+        return self.fitter.cores if self.fitter is not None else ()
+
+    @property
+    def missing(self) -> tuple:
+        """The effects the climb added to the given model."""
+        return tuple(self.current.effects[self.n_given:])
+
+    @property
+    def provisional(self) -> bool:
+        """Combinations were left untried (``untried``): the verdict holds for what was fitted."""
+        return bool(self.untried)
+
+    def undetermined(self) -> dict:
+        """Parameters of the last rung the curve does not determine: ``{name: reason}``.
+
+        Not determined: a standard deviation over :data:`~.identifiability.DETERMINED`
+        times the value (or not finite), by the fit and, where finite-element runs are
+        allowed, by the finite-element derivatives at the fitted values (they decide, and
+        they are the standard deviation the last rung reports: ``std_source``); the reason
+        then says which other measurement (a larger or smaller sphere to the same depth, a
+        deeper indentation) would determine it and to what standard deviation, predicted
+        from the fitted model (:func:`~.identifiability.assess`; not made when the diagnosis
+        keeps to surfaces, ``in_loop=False``), or that none would. Also a fit parameter on a
+        face of its range, unless the face is a physical limit
+        (:func:`~skin_indent.models.composed.at_physical_limit`: a rigid base, the nearly
+        incompressible end of nu). Computed by :func:`~.workflow.diagnose`.
+        """
+        return dict(self.not_determined)
+
+    def _tested(self) -> str:
+        """``"of the vocabulary"``, or which effects were tested when the candidates were restricted."""
+        if self.candidates is None or set(EFFECTS) <= set(self.candidates):
+            return "of the vocabulary"
+        return f"tested ({', '.join(self.candidates) or 'no candidate was given'})"
+
+    def _untried_clause(self) -> str:
+        """``"not tried: a and b (why)[; c (why)]"`` (empty when everything was tried)."""
+        groups: dict = {}
+        for combo, why in self.untried.items():
+            groups.setdefault(why, []).append(combo)
+        return "; ".join(f"not tried: {_listed(combos)} ({why})" for why, combos in groups.items())
+
+    def sentence(self, units: DisplayUnits | None = None) -> str:
+        """The diagnosis in a few sentences: what is missing, whether the last rung explains the curve,
+        what was not tried, and what the curve does not determine (with the standard deviations the
+        last rung reports).
+
+        Parameters
+        ----------
+        units : DisplayUnits, optional
+            The units of its numbers and parameter names; default :attr:`units` (the curve's scale).
+            :meth:`to_dict` gives the package units
+            (:data:`~skin_indent.measurement.scale.PACKAGE_UNITS`).
+        """
+        u = self.units if units is None else units
+        text = self._verdict_sentence(u)
+        for reason in self.not_determined.values():
+            text += f" {shown_in(reason, u)}."
+        return text
+
+    @property
+    def joint(self) -> bool:
+        """Several curves of one sample were diagnosed together."""
+        return len(self.curves) > 1
+
+    @property
+    def _these(self) -> str:
+        return f"these {len(self.curves)} curves" if self.joint else "this curve"
+
+    def _rms(self, f: Rung, units: DisplayUnits, digits: int = 3) -> str:
+        """A rung's RMS as the sentences show it, in ``units.force`` (the unit is not written): each
+        curve's, in input order, for several."""
+        k = units.per_mN
+        if self.joint and len(f.curve_rms_mN) > 1:
+            return "(" + ", ".join(f"{v * k:.{digits}g}" for v in f.curve_rms_mN) + ")"
+        return f"{f.rms_mN * k:.{digits}g}"
+
+    def _noise(self, units: DisplayUnits, digits: int = 3) -> str:
+        """The noise as the sentences show it, in ``units.force`` (each curve's for several)."""
+        k = units.per_mN
+        if self.joint:
+            return "(" + ", ".join(f"{v * k:.{digits}g}" for v in self.noises_mN) + ")"
+        return f"{self.noise_mN * k:.{digits}g}"
+
+    def _verdict_sentence(self, u: DisplayUnits) -> str:
+        """The verdict in words, its numbers in the units ``u``."""
+        cur, base = self.current, self.ladder[self.n_given]
+        first = self.steps[0] if self.steps else None
+        untried = self._untried_clause()
+        structure, suggested = shown_in(cur.structure, u), shown_in(self.suggested_measurement, u)
+        F = u.force
+        provisional = f" The verdict is provisional: {untried}." if untried else ""
+        if not self.missing:
+            if self.verdict == "ambiguous" and first is not None:
+                effects = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
+                return (f"The {cur.model} model fails ({structure}); {' and '.join(effects)} explain it "
+                        f"about equally well: {suggested}" + provisional)
+            if self.verdict not in ("none", "unexplained") and first is not None:  # named, not added (max_rungs = 0)
+                top = first.ranking[0]
+                return (f"The {cur.model} model fails ({structure}); the missing effect is {self.verdict}: "
+                        f"adding it lowers the RMS from {self._rms(cur, u)} to {self._rms(top, u)} {F} (noise "
+                        f"{self._noise(u)} {F}) and the BIC by {first.rung.bic - top.bic:.1f}." + provisional)
+            if self.explained:
+                return (f"The {cur.model} model explains {self._these} to the noise level ({self._rms(cur, u)} {F} RMS "
+                        f"against {self._noise(u)} {F} noise): no missing effect is needed." + provisional)
+            text = (f"The {cur.model} model does not explain {self._these} ({self._rms(cur, u)} {F} RMS against "
+                    f"{self._noise(u)} {F} noise; {structure})")
+            if untried:
+                return (text + f"; of the effects fitted, none lowers the BIC by more than {STRONG:g}, and the verdict "
+                        f"is provisional: {untried}.")
+            outside = ("outside the vocabulary" if self._tested() == "of the vocabulary"
+                       else "not among the effects tested")
+            return (text + f", and no effect {self._tested()} lowers the BIC by more than {STRONG:g}: what is "
+                    f"missing is {outside}.")
+        rms = " -> ".join(self._rms(f, u) for f in self.ladder[self.n_given:])
+        what = " and ".join(_plural(self.missing))
+        text = f"What the {base.model} model misses: {what} (RMS {rms} {F} against {self._noise(u)} {F} noise)"
+        if self.explained:
+            text += f"; the {cur.model} model explains {'the curve' if not self.joint else 'every curve'} to the noise."
+        elif untried and not any(s.rung.effects == cur.effects for s in self.steps):  # stopped at max_rungs
+            text += (f"; the {cur.model} model still leaves a structured residual ({structure}) and was not "
+                     f"examined further, so the verdict is provisional: {untried}.")
+            untried = ""
+        elif untried:
+            text += (f"; the {cur.model} model still leaves a structured residual ({structure}); of the effects "
+                     f"fitted on top of it, none lowers the BIC by more than {STRONG:g}, and the verdict is "
+                     f"provisional: {untried}.")
+            untried = ""
+        else:
+            text += (f"; the {cur.model} model still leaves a structured residual ({structure}) and no further "
+                     f"effect {self._tested()} lowers the BIC by more than {STRONG:g}.")
+        if self.verdict == "ambiguous" or len(self.confounded_with) > 1:
+            others = self.confounded_with[1:]
+            text += (f" {' or '.join(others).capitalize()} explains it "
+                     f"{'about equally well' if self.verdict == 'ambiguous' else 'nearly as well'}: "
+                     f"{suggested}.")
+        if untried:
+            text += f" The verdict is provisional: {untried}."
+        return text
+
+    def report(self, units: DisplayUnits | None = None) -> str:
+        """The diagnosis as text (what ``skin-indent diagnose`` prints).
+
+        Parameters
+        ----------
+        units : DisplayUnits, optional
+            The units of its lengths, forces and moduli, and of the parameters' names (``E_Pa``,
+            ``offset_um``: :meth:`~skin_indent.measurement.scale.DisplayUnits.name`); default
+            :attr:`units`: um, nN and Pa for an AFM-scale curve, mm, mN and kPa for skin. Notes,
+            the structure of the residuals and the suggested measurement are written in them too
+            (:func:`~skin_indent.measurement.scale.shown_in`).
+        """
+        u = self.units if units is None else units
+        F = u.force
+        curves = self.curves or [self.data]
+        noises = self.noises_mN or [self.noise_mN]
+        sources = self.noise_sources or [self.noise_source]
+        lines = [f"{len(curves)} curves of one sample, diagnosed together (the material shared, each curve its own "
+                 "sphere, contact point and noise):"] if self.joint else []
+        for k, (d, noise, source) in enumerate(zip(curves, noises, sources)):
+            head = f"curve {k + 1}: " if self.joint else "data: "
+            lines.append(f"{head}{d.source} ({d.n} points" + (f", bins of {d.binned}" if d.binned > 1 else "") + "; "
+                         + ", ".join(f"{kind} {np.count_nonzero(d.kind == kind)}"
+                                     for kind in ("approach", "hold", "retract") if np.any(d.kind == kind))
+                         + f"), sphere R = {d.radius_mm * u.per_mm:g} {u.length}")
+            if self.joint:
+                lines.append(f"  noise: {noise * u.per_mN:.4g} {F}, {source}")
+            if d.baseline is not None:
+                lines.append(f"{'  ' if self.joint else ''}baseline force subtracted: {d.baseline_mN * u.per_mN:.4g} "
+                             f"{F} at the contact point (pre-contact part)")
+            lines += [f"{'  ' if self.joint else ''}note: {shown_in(n, u)}" for n in d.notes]
+        errors = (f"model error {100 * MODEL_ERROR:g}% of the force added in quadrature; effective sample size "
+                  f"{self.n_effective:.1f} (every BIC below")
+        if self.joint:
+            lines.append(errors + ", all curves together)")
+        else:
+            lines.insert(1, f"noise: {self.noise_mN * u.per_mN:.4g} {F}, {self.noise_source}; {errors})")
+        lines.append("ladder:" + (" (RMS of each curve, in input order)" if self.joint else ""))
+        for f in self.ladder:
+            how = f", finite elements in the loop ({f.forward_runs} runs)" if f.forward_runs else ""
+            lines.append(f"  {f.model:<28} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
+                         f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}{how}")
+        for f in self.alternatives:
+            lines.append(f"  (other explanation) {f.model:<20} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
+                         f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
+        for name, k in self.current.priors.items():
+            c = u.factor(name)
+            lines.append(f"  what you know, {u.name(name)}: prior {k['prior_mean'] * c:.4g} +- "
+                         f"{k['prior_sd'] * c:.2g}, with the data {k['posterior'] * c:.4g} +- "
+                         f"{k['posterior_sd'] * c:.2g} ({DETERMINED_BY[k['determined_by']]})"
+                         + (f"; IN TENSION with the data ({k['tension_sd']:.1f} combined sd apart)"
+                            if k["in_tension"] else ""))
+        for name, v in (self.fitter.fixed.items() if self.fitter is not None else ()):
+            if name in self.current.parameters:
+                lines.append(f"  what you know, {u.name(name)}: held at {v * u.factor(name):g}")
+        fe = [u.name(k) for k, v in self.std_source.items() if v == FROM_FE]
+        if fe:
+            lines.append(f"  standard deviations of {_listed(fe)} ({self.current.model}): {FROM_FE} at the fitted "
+                         "values (the others: the fit's covariance)")
+        for i, step in enumerate(self.steps):
+            lines.append(f"where {step.rung.model} fails: {shown_in(step.rung.structure, u)}")
+            lines.append("candidates (delta BIC > 0: better than that model):")
+            for f in step.ranking:
+                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
+                             f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
+            for k, v in step.not_detectable.items():
+                if v.startswith("not fitted"):
+                    lines.append(f"  +{k:<13} {shown_in(v, u)}")
+                elif i == 0:  # what the data cannot show does not change up the ladder
+                    lines.append(f"  {k:<14} not detectable here: {shown_in(v, u)}")
+        lines.append(f"verdict: {self.verdict}" + (" (provisional)" if self.provisional else ""))
+        if self.provisional:
+            lines.append(f"provisional: {self._untried_clause()}")
+        lines.append(self.sentence(u))
+        lines += [f"note: {shown_in(n, u)}" for n in self.notes]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """The diagnosis as JSON-safe data (what ``skin-indent diagnose --json`` prints).
+
+        Every number, name and text is in the package units whatever the curve's scale (mm, mN,
+        kPa, in the names: ``radius_mm``, ``noise_mN``, ``rms_mN``, ``E_kPa``, ``offset_mm``), so
+        that the JSON of AFM-scale and skin-scale curves reads back the same way: the
+        ``"sentence"`` is :meth:`sentence` in the package units
+        (:data:`~skin_indent.measurement.scale.PACKAGE_UNITS`), and the texts that hold numbers
+        (``suggested_measurement``, ``undetermined``, each rung's ``structure``) are written in
+        them too, while :meth:`report`, the HTML page and the figures show an AFM-scale curve in
+        um, nN and Pa (:attr:`units`) from the same numbers.
+
+        Returns
+        -------
+        dict
+        """
+        base, cur = self.base, self.current
+        contact = cur.parameters.get("offset_mm", 0.0)
+
+        def sources(f):
+            return {k: self.std_source.get(k, FROM_FIT) if f is cur else FROM_FIT for k in f.std}
+
+        def rung(f):
+            return {"model": f.model, "effects": list(f.effects), "parameters": f.parameters, "std": f.std,
+                    "std_source": sources(f), "rms_mN": f.rms_of_curves, "bic": f.bic, "white": f.white,
+                    "structure": f.structure, "forward_runs": f.forward_runs, "at_bounds": list(f.at_bounds),
+                    "priors": f.priors}
+
+        def candidate(step, f):
+            return {"effect": f.effects[-1], "delta_bic": step.rung.bic - f.bic, **f.summary(),
+                    "std_source": sources(f)}
+
+        curves = [{"data": c.source, "n_points": c.n, "binned": c.binned, "radius_mm": c.radius_mm,
+                   "noise_mN": s, "noise_source": w, "baseline_mN": c.baseline_mN}
+                  for c, s, w in zip(self.curves, self.noises_mN, self.noise_sources)]
+        if self.joint:
+            head = {"data": [c["data"] for c in curves], "n_points": self.data.n, "curves": curves,
+                    "radius_mm": [c["radius_mm"] for c in curves], "noise_mN": list(self.noises_mN),
+                    "noise_source": list(self.noise_sources)}
+        else:
+            head = {"data": self.data.source, "n_points": self.data.n, "binned": self.data.binned,
+                    "radius_mm": self.radius_mm, "noise_mN": self.noise_mN, "noise_source": self.noise_source}
+        return jsonable({
+            **head,
+            "bic_formula": Rung.BIC_FORMULA,
+            "model_error": MODEL_ERROR,
+            "n_effective": self.n_effective,
+            **({} if self.joint else {"baseline_mN": self.data.baseline_mN, "contact_point_mm": float(contact)}),
+            "fixed": dict(self.fitter.fixed) if self.fitter is not None else {},
+            "priors": ({k: list(v) for k, v in self.fitter.priors.items()} if self.fitter is not None else {}),
+            "base": rung(base),
+            "current": rung(cur),
+            "explained": self.explained,
+            "missing": list(self.missing),
+            "undetermined": self.undetermined(),
+            "ranking": [candidate(self.steps[0], f) for f in self.ranking] if self.steps else [],
+            "steps": [{"model": st.rung.model, "bic": st.rung.bic, "verdict": st.verdict,
+                       "ranking": [candidate(st, f) for f in st.ranking],
+                       "not_detectable": dict(st.not_detectable)} for st in self.steps],
+            "alternatives": [rung(f) for f in self.alternatives],
+            "not_detectable": dict(self.not_detectable),
+            "candidates": list(EFFECTS) if self.candidates is None else list(self.candidates),
+            "verdict": self.verdict,
+            "provisional": self.provisional,
+            "untried": list(self.untried),
+            "untried_reasons": dict(self.untried),
+            "confounded_with": list(self.confounded_with),
+            "suggested_measurement": self.suggested_measurement,
+            "sentence": self.sentence(PACKAGE_UNITS),
+            "ladder": [rung(f) for f in self.ladder],
+            "notes": list(self.notes),
+            "provenance": dict(self.provenance),
+        })
+
+
+def _plural(effects) -> list[str]:
+    """``("layer", "layer", "offset")`` -> ``["2 layers", "offset"]``, in order of first appearance."""
+    counts: dict = {}
+    for e in effects:
+        counts[e] = counts.get(e, 0) + 1
+    return [f"{n} {e}s" if n > 1 else e for e, n in counts.items()]
+
+
+@dataclass
+class Step:
+    """One examination of a rung: every candidate effect fitted on top of it and ranked.
+
+    Attributes
+    ----------
+    rung : Rung
+        The model examined.
+    ranking : list of Rung
+        The candidates, best BIC first (``effects[-1]`` is the one added).
+    not_detectable : dict
+        Candidates that cannot show in these data (or that no fitted model has), with why.
+    verdict : str
+        The effect named (its BIC lower by more than :data:`~.criteria.STRONG`, no rival within
+        :data:`~.criteria.CLOSE`), ``"none"`` or ``"ambiguous"``.
+    rivals : list of Rung
+        Candidates the data do not exclude (BIC within :data:`~.criteria.RIVAL` of the best).
+    """
+
+    rung: Rung
+    ranking: list
+    not_detectable: dict
+    verdict: str
+    rivals: list
