@@ -57,7 +57,7 @@ import logging
 import math
 import re
 
-from ..effects import EFFECTS, WEIGHED, effect, instances
+from ..effects import BASE_PARAMETERS, EFFECTS, WEIGHED, effect, instances, numbered
 from ..measurement import SEGMENTS, CurveSet
 from ..measurement.scale import Name, Quantity, UnitText
 from .evidence import suggest_measurement
@@ -65,6 +65,7 @@ from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_
 from ..fitting.scale_checks import contact_points, points_flags
 from ..fitting.multistart import Fitter, Rung
 from ..models.composed import at_physical_limit
+from ..models.joint import split_name
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
 from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RIVAL, STRONG, Scores, explained,
                        settled)
@@ -428,10 +429,6 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
 def check_known(fixed, priors, effects, n_curves: int) -> None:
     """Every name held (``fixed``) or given a prior is a parameter of the base model or of one of the
     ``effects`` (or a curve's own parameter, ``offset_mm[2]``): one line naming the vocabulary otherwise."""
-    from ..effects import BASE_PARAMETERS
-    from ..effects import numbered
-    from ..models.joint import split_name
-
     names = {p.name for p in BASE_PARAMETERS}
     for e in instances(tuple(dict.fromkeys(effects))):
         for k in range(1, 4):  # up to a third occurrence of a repeatable effect (thickness3_mm)
