@@ -106,22 +106,22 @@ def test_forearm_ladder_names_layers(ctx):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", ["two layers on a rigid base", "layer and stiffening"])
-def test_two_elastic_effects_named(case, ctx):
+def test_two_layers_on_a_rigid_base_named(ctx):
+    # A layer with strain stiffening (E 8 kPa, 1.5 mm over a base 0.3 times as stiff, C20 16 kPa) is not
+    # a case for one sphere: a thinner layer without stiffening explains its curve to the noise (0.74 mm
+    # at noise 0.04 mN, 0.78 mm at 0.02; 1.44 mm for a 3 mm truth), so the climb rightly stops at one
+    # layer. It passed here while the thickness nodes began at 1.5 depths (the layer fit stopped at that
+    # edge and the climb went on); since they begin at 1.2 depths (e313731) it cannot. Two spheres
+    # separate them: test_sample.py::test_layer_and_stiffening_seen_with_two_spheres_are_both_named.
     sigma = 0.04
-    if case == "two layers on a rigid base":
-        truth = {"E_kPa": 15.0, "nu": 0.48, "thickness_mm": 1.0, "ratio": 0.25, "thickness2_mm": 2.0,
-                 "ratio2": math.inf}
-        effects, expected = ("layer", "layer"), ["layer", "layer"]
-    else:
-        truth = {"E_kPa": 8.0, "nu": 0.47, "thickness_mm": 1.5, "ratio": 0.3, "C20_kPa": 16.0}
-        effects, expected = ("layer", "stiffening"), ["layer", "stiffening"]
+    truth = {"E_kPa": 15.0, "nu": 0.48, "thickness_mm": 1.0, "ratio": 0.25, "thickness2_mm": 2.0,
+             "ratio2": math.inf}
+    effects, expected = ("layer", "layer"), ["layer", "layer"]
     # the curve is solved at each of its 100 depths: on the coarse mesh such a curve wiggles by
     # 0.09% rms (0.44% max) as the contact edge crosses its nodes, ~0.02 mN here, a structure of
     # the synthetic data that measured curves do not have (the fits' runs interpolate a smooth
     # curve between solved depths); on the medium mesh by 0.03% rms
-    mesh = "medium" if case == "two layers on a rigid base" else "coarse"
-    m = _own(effects, truth, sigma=sigma, seed=21, mesh=mesh)
+    m = _own(effects, truth, sigma=sigma, seed=21, mesh="medium")
     d = diagnose(m, candidates=("layer", "stiffening", "offset"), context=ctx)
     assert sorted(d.missing) == expected or d.verdict == "ambiguous", d.report()
     _ends_at_the_noise(d, sigma)

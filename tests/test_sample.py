@@ -255,6 +255,20 @@ def test_stiffening_seen_with_two_spheres_is_stiffening_not_a_layer(tmp_path):
 
 
 @pytest.mark.slow
+def test_layer_and_stiffening_seen_with_two_spheres_are_both_named(tmp_path):
+    # one sphere cannot tell this sample from a thinner layer without stiffening (test_ladder.py); two
+    # can: measured 469 s from an empty cache, layer+stiffening at (0.029, 0.029) mN against noise
+    # (0.029, 0.027), thickness 1.50 +- 0.29 mm
+    theta = {"E_kPa": 8.0, "nu": 0.47, "thickness_mm": 1.5, "ratio": 0.3, "C20_kPa": 16.0}
+    ms = [curve(("layer", "stiffening"), theta, R, seed=61 + i, name="layerstiff") for i, R in enumerate((6.22, 2.0))]
+    d = _diagnose_pair(ms, tmp_path)
+    assert d.verdict == "layer+stiffening", d.report()
+    assert _within_noise(d), d.report()
+    t, sd = d.current.parameters["thickness_mm"], d.current.std["thickness_mm"]
+    assert abs(t - theta["thickness_mm"]) < 3 * sd, d.report()
+
+
+@pytest.mark.slow
 def test_a_clean_half_space_seen_with_two_spheres_needs_nothing(tmp_path):
     theta = {"E_kPa": 10.0, "nu": 0.45}
     ms = [curve((), theta, R, seed=51 + i, name="clean") for i, R in enumerate((6.22, 2.0))]

@@ -37,8 +37,9 @@ MAX_STARTS = 24
 #: function evaluations (finite-element runs, besides the Jacobians') of one such start
 FE_MAX_EVALUATIONS = 20
 #: starts kept after screening: the fit goes from the best-ranked; when it ends above
-#: :data:`FE_RETRY` times the noise (with the model error), each of the others gets a short fit (:data:`FE_PROBE`
-#: evaluations) and the best of those, if better, is fitted to the end
+#: :data:`FE_RETRY` times the noise (with the model error), it goes on from where it got if its budget
+#: (:data:`FE_MAX_EVALUATIONS`) stopped it, and if still above, each of the others gets a short fit
+#: (:data:`FE_PROBE` evaluations) and the best of those, if better, is fitted to the end
 FE_PROBES = 3
 FE_RETRY = 1.3
 FE_PROBE = 5
