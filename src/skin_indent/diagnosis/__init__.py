@@ -20,7 +20,7 @@ The curve is prepared by :func:`skin_indent.measurement.prepare` (as for fits), 
 candidate effects are the registered ones (:mod:`skin_indent.effects`).
 """
 
-from ..fitting.multistart import MODEL_ERROR, Rung
+from ..fitting.rung import MODEL_ERROR, Rung
 from ..inverse.residuals import ResidualAnalysis, analyse_residuals, describe_structure, effective_sample_size
 from .planning import Plan, plan
 from .workflow import Diagnosis, diagnose

@@ -12,7 +12,8 @@ import dataclasses
 
 import numpy as np
 
-from ..fitting.multistart import NO_STRUCTURE, Fitter, Rung, evidence
+from ..fitting.multistart import Fitter
+from ..fitting.rung import NO_STRUCTURE, Rung, evidence
 from ..models.composed import at_physical_limit
 
 #: BIC drop that names an effect

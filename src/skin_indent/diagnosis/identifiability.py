@@ -39,7 +39,7 @@ from ..effects import ELASTIC
 from ..inverse.result import jacobian_covariance
 from ..measurement.scale import Quantity, UnitText
 from ..models import ComposedModel, JointModel
-from ..fitting.multistart import MODEL_ERROR
+from ..fitting.rung import MODEL_ERROR
 from ..models.fe_core import FECore
 from ..response_surface import RunCache
 from ..runtime.executors import available_cpus

@@ -24,7 +24,7 @@ them" sentence of a diagnosis (:func:`~.evidence.suggest_measurement`):
       \qquad \sigma_i^2 = \sigma^2 + \big(\varepsilon \tfrac{F_{a,i} + F_{b,i}}{2}\big)^2,
 
   with :math:`\sigma` the noise of the recorded curve and :math:`\varepsilon` =
-  :data:`~skin_indent.fitting.multistart.MODEL_ERROR`, the error model of every fit.
+  :data:`~skin_indent.fitting.rung.MODEL_ERROR`, the error model of every fit.
   :math:`S^2` is how much the chi-square of one explanation rises over the candidate's
   points if the other is true and neither is refitted: an upper bound of what a joint fit
   of the recorded curves and the candidate would show (refitting absorbs part of it; a
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..effects import DEPTH, HISTORY, Model, instances
-from ..fitting.multistart import MODEL_ERROR
+from ..fitting.rung import MODEL_ERROR
 from ..inverse.result import jacobian_covariance
 from ..measurement.preparation import MAX_DEPTH_RATIO
 from ..measurement.scale import Quantity, UnitText

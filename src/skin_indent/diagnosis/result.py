@@ -18,7 +18,7 @@ from ..effects import EFFECTS
 from ..measurement import PreparedCurve
 from ..measurement.scale import PACKAGE_UNITS, DisplayUnits, display_units, shown_in
 from ..fitting.knowledge import DETERMINED_BY
-from ..fitting.multistart import MODEL_ERROR, Rung
+from ..fitting.rung import MODEL_ERROR, Rung
 from ..runtime.json_io import jsonable
 from .criteria import FROM_FE, FROM_FIT, STRONG
 

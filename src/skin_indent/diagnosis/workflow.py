@@ -63,7 +63,8 @@ from ..measurement.scale import Name, Quantity, UnitText
 from .evidence import suggest_measurement
 from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_sample, sample_noise
 from ..fitting.scale_checks import contact_points, points_flags
-from ..fitting.multistart import Fitter, Rung
+from ..fitting.multistart import Fitter
+from ..fitting.rung import Rung
 from ..models.composed import at_physical_limit
 from ..models.joint import split_name
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion

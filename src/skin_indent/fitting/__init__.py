@@ -6,6 +6,8 @@
 - :mod:`.curve`: :func:`fit`, the user's path from a recorded curve (baseline, contact
   point, Hertz comparison, fit quality) to a :class:`CurveFit`;
 - :mod:`.hertz`: :func:`fit_hertz`, Hertz fitted as AFM tools (nanite) fit it.
+- :mod:`.multistart`: the multistart fitter of any model (each set of effects fitted once);
+- :mod:`.rung`: one fitted model, :class:`~.rung.Rung`, its BIC and its residual in words.
 """
 
 from .curve import MISFIT_LIMIT, CurveFit, fit, incompressible_limit, quality

@@ -25,7 +25,8 @@ from ..measurement.scale import Name, Quantity, UnitText
 from .curve import CurveFit, quality, with_scale_flags
 from .identification import hertz_modulus, run_method
 from .knowledge import DETERMINED_BY
-from .multistart import Fitter, evidence
+from .multistart import Fitter
+from .rung import evidence
 from .sample_fit import sample_fit_of
 from .scale_checks import MISFIT_FLAG
 from ..models import HertzModel
@@ -174,7 +175,7 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     CurveFit or SampleFit
         A :class:`~skin_indent.fitting.sample_fit.SampleFit` for several curves. ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
         model error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
-        ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.multistart.evidence`);
+        ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.rung.evidence`);
         ``flags`` with the scale checks' (:func:`~skin_indent.fitting.scale_checks.scale_flags`).
 
     Raises

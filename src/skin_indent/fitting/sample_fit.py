@@ -23,7 +23,7 @@ from ..measurement.scale import display_units
 from ..models.composed import at_physical_limit
 from ..runtime.json_io import jsonable
 from .knowledge import DETERMINED_BY
-from .multistart import evidence
+from .rung import evidence
 from .scale_checks import MISFIT_FLAG, contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
 
 

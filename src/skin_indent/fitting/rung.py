@@ -1,0 +1,148 @@
+"""One fitted model of a curve: :class:`Rung` (its numbers, its BIC), and the residual in words.
+
+A :class:`Rung` is what :class:`~skin_indent.fitting.multistart.Fitter` makes of each set of
+effects it fits; :func:`evidence` scores it (AIC, BIC) and :func:`structure_sentence` says where its
+residual departs from the noise. Every output of a fit or a diagnosis reads these.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..inverse import IdentificationResult
+from ..inverse.residuals import describe_structure
+from ..measurement.scale import Quantity, Unit, UnitText, joined
+from ..runtime.json_io import jsonable
+
+#: relative accuracy of the forward model (FE + surface), added to the noise in quadrature
+MODEL_ERROR = 0.003
+#: the structure sentence of a residual in which no range departs from the model
+NO_STRUCTURE = "no range departs from the model beyond the noise"
+
+
+@dataclass(frozen=True, eq=False)
+class Rung(IdentificationResult):
+    """One fitted model of a diagnosis (a rung of the ladder or a candidate).
+
+    Everything of :class:`~skin_indent.inverse.IdentificationResult` (the least-squares
+    fit; ``covariance`` and ``free_names`` in the fit coordinates ``fit_parameters``),
+    with ``parameters`` and ``std`` as users read them (``ratio``, ``C20_kPa``...), and
+    the diagnosis' own criterion ``bic`` (:attr:`BIC_FORMULA`).
+
+    Attributes
+    ----------
+    model : str
+        ``neo-hooke`` plus ``+effect`` for each effect.
+    effects : tuple of str
+    fit_parameters : dict
+        The fitted coordinates (``compliance``, ``C20_over_E``...).
+    prediction_mN : ndarray
+    chi2_weighted : float
+        Sum of squared residuals over sigma_i^2 (noise and model error).
+    white : bool
+        The residual passes the whiteness tests at the noise level.
+    analysis : ResidualAnalysis
+    structure : str
+        Where the residual departs from the noise, in words (:func:`structure_sentence`: depths in
+        mm as a ``str``, a :class:`~skin_indent.measurement.scale.UnitText` that reads in any units).
+    bound_model : ComposedModel
+        The fitted force model, ``x`` its fitted vector.
+    forward_runs : int
+        Finite-element runs the fit made (the finite-element model in the loop; 0 on surfaces).
+    at_bounds : tuple of str
+        Fit parameters that ended on a face of their range.
+    priors : dict
+        Per parameter given a prior, :func:`prior_summary`: the prior, the posterior, how much
+        the data narrowed it and whether data and prior agree.
+    curve_rms_mN : tuple of float
+        The RMS residual of each curve (mN), in input order (one curve: ``(rms_mN,)``).
+    curve_white : tuple of bool
+        Whether each curve's residual passes the whiteness tests on its own.
+    """
+
+    BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
+                   "n_eff the AR(1) effective sample size")
+
+    model: str = ""
+    effects: tuple = ()
+    fit_parameters: dict = field(default_factory=dict)
+    prediction_mN: np.ndarray = None
+    chi2_weighted: float = math.nan
+    white: bool = False
+    analysis: object = None
+    structure: str = ""
+    bound_model: object = field(default=None, repr=False)
+    x: np.ndarray = None
+    forward_runs: int = 0
+    at_bounds: tuple = ()
+    priors: dict = field(default_factory=dict)
+    curve_rms_mN: tuple = ()
+    curve_white: tuple = ()
+
+    @property
+    def residual_mN(self) -> np.ndarray:
+        return self.residuals_mN
+
+    @property
+    def n_parameters(self) -> int:
+        return self.n_free
+
+    def summary(self) -> dict:
+        """JSON-safe summary of the rung."""
+        return jsonable({"model": self.model, "parameters": self.parameters, "std": self.std,
+                         "rms_mN": self.rms_of_curves, "bic": self.bic, "white": self.white,
+                         "n_parameters": self.n_parameters, "structure": self.structure, "priors": self.priors})
+
+    @property
+    def rms_of_curves(self):
+        """The RMS residual (mN) as outputs report it: a number for one curve, a list in input order for
+        several curves of one sample."""
+        if len(self.curve_rms_mN) > 1:
+            return [float(v) for v in self.curve_rms_mN]
+        return self.rms_mN
+
+
+def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:
+    """AIC and BIC of a fit from its weighted chi-square (:attr:`Rung.BIC_FORMULA`).
+
+    ``chi2_weighted`` is the sum of r_i^2 / sigma_i^2 (noise and model error in
+    quadrature), ``k`` the fitted parameters, ``n`` the points; with ``n_eff`` (an effective
+    sample size, the diagnosis's) the chi-square counts ``n_eff / n`` of its value and the
+    penalty ``ln n_eff`` per parameter.
+    """
+    m = float(n if n_eff is None else n_eff)
+    chi2 = chi2_weighted * m / n
+    return chi2 + 2.0 * k, chi2 + k * math.log(m)
+
+
+def structure_sentence(data, residual, sigma) -> str:
+    """Where the residual departs from the noise, per segment, in words.
+
+    Returns
+    -------
+    str
+        :data:`NO_STRUCTURE`, or the ranges where the model is too soft or too stiff (depths, mm;
+        times of a hold, s), a :class:`~skin_indent.measurement.scale.UnitText` when it holds
+        depths: in package units as a ``str``, in the units of the curve's scale where a text
+        shows it (:func:`~skin_indent.measurement.scale.shown_in`).
+    """
+    parts = []
+    noise = float(np.median(sigma))
+    for kind, label in (("approach", "loading"), ("hold", "hold"), ("retract", "unloading")):
+        sel = data.kind == kind
+        if np.count_nonzero(sel) < 5:
+            continue
+        if kind == "hold" and data.time_s is not None:
+            ranges = describe_structure(data.time_s[sel], residual[sel], noise)
+            text = [f"too {r['sign'].split()[1]} from {r['from_mm']:.3g} to {r['to_mm']:.3g} s" for r in ranges]
+        else:
+            ranges = describe_structure(data.depth_mm[sel], residual[sel], noise)
+            text = [UnitText("too {sign} from {a:.3g} to {b:.3g} {unit}", sign=r["sign"].split()[1],
+                             a=Quantity(r["from_mm"], "from_mm"), b=Quantity(r["to_mm"], "to_mm"), unit=Unit("mm"))
+                    for r in ranges]
+        if text:
+            parts.append(joined("", [f"on {label}: model ", joined(", ", text)]))
+    return joined("; ", parts) if parts else NO_STRUCTURE
