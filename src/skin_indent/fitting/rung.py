@@ -55,8 +55,8 @@ class Rung(IdentificationResult):
     at_bounds : tuple of str
         Fit parameters that ended on a face of their range.
     priors : dict
-        Per parameter given a prior, :func:`prior_summary`: the prior, the posterior, how much
-        the data narrowed it and whether data and prior agree.
+        Per parameter given a prior, :func:`~skin_indent.fitting.knowledge.prior_summary`: the prior, the
+        posterior, how much the data narrowed it and whether data and prior agree.
     curve_rms_mN : tuple of float
         The RMS residual of each curve (mN), in input order (one curve: ``(rms_mN,)``).
     curve_white : tuple of bool
