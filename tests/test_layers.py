@@ -8,6 +8,7 @@ from _data import load_curve
 
 from skin_indent.analytic import dimitriadis_bonded_force, hertz_force
 from skin_indent.mechanics import LinearElastic, NeoHooke, SphericalIndenter
+from skin_indent.mechanics.materials import NeoHookeStiffening
 from skin_indent.mechanics.layers import RIGID, Layer, LayeredSample
 from skin_indent.mechanics.mesh import conform_to_interfaces, graded_mesh
 from skin_indent.simulate import simulate
@@ -127,6 +128,41 @@ def test_neo_hookean_layers_in_one_pass_equal_the_per_layer_evaluation():
     f_each, K_each = solid.forces(u)
     assert np.abs(f_one - f_each).max() <= 1e-12 * np.abs(f_each).max()
     assert np.abs(K_one - K_each).max() <= 1e-12 * np.abs(K_each).max()
+
+
+@pytest.mark.parametrize("sample", [
+    LayeredSample((Layer(1.2, NeoHookeStiffening(1.0, 0.49, 4.0)),), NeoHookeStiffening(0.25, 0.49, 1.0)),
+    LayeredSample((Layer(0.5, NeoHookeStiffening(12.0, 0.45, 30.0)),), NeoHooke(2.4, 0.48)),
+    NeoHookeStiffening(6.0, 0.45, 12.0),
+    NeoHooke(8.0, 0.45),
+], ids=["stiffening layers", "stiffening over neo-Hooke", "stiffening half-space", "neo-Hooke half-space"])
+def test_a_body_of_neo_hookean_laws_with_stiffening_in_one_pass_equals_each_law(sample):
+    """Regions of neo-Hookean laws with or without stiffening (a layer with stiffening as the
+    finite-element fits build it, a half-space) are evaluated in one pass on the five axisymmetric
+    components with per-point parameters: the same forces and tangents as each law's own 3 x 3
+    code, region by region, and a tangent that is the derivative of the forces."""
+    from skin_indent.mechanics import graded_mesh
+    from skin_indent.mechanics.axisymmetric import AxisymmetricSolid
+
+    interfaces = getattr(sample, "interfaces_mm", None)
+    imesh = graded_mesh(R, 0.6, "coarse", **({"interfaces_mm": interfaces} if interfaces is not None else {}))
+    solid = AxisymmetricSolid(imesh.mesh, sample)
+    assert solid._merged is not None
+    u = simulate(sample, SphericalIndenter(R), [0.3, 0.6], mesh=imesh, solve_at_outputs=True,
+                 keep_fields=True).solved_fields[-1]  # the strains of an indentation to 0.6 mm
+    f_one, K_one = solid.forces(u)
+    solid._merged = None  # each region by its own law
+    f_each, K_each = solid.forces(u)
+    assert np.abs(f_one - f_each).max() <= 1e-12 * np.abs(f_each).max()
+    assert np.abs(K_one - K_each).max() <= 1e-12 * np.abs(K_each).max()
+    solid._merged = AxisymmetricSolid(imesh.mesh, sample)._merged
+    du = 1e-7 * np.random.default_rng(8).standard_normal(solid.n_dofs)
+    f_plus, _ = solid.forces(u + du, tangent=False)
+    f_minus, _ = solid.forces(u - du, tangent=False)
+    dofs = solid.element_dofs  # (nloc, nel)
+    Kdu = np.bincount(dofs.T.ravel(), weights=np.einsum("ekl,el->ek", K_one, du[dofs.T]).ravel(),
+                      minlength=solid.n_dofs)
+    assert np.abs((f_plus - f_minus) / 2 - Kdu).max() <= 1e-6 * np.abs(Kdu).max()
 
 
 def test_a_thin_layer_on_a_rigid_base_keeps_the_depth_step_that_converged():

@@ -29,8 +29,8 @@ from scipy import sparse
 from skfem import Basis, ElementTriP2, ElementVector
 
 from .layers import LayeredSample
-from .materials import Material, NeoHooke
-from .materials.neo_hooke import PointwiseNeoHooke
+from .materials import Material, NeoHooke, NeoHookeStiffening
+from .materials.axisymmetric_hyperelastic import AxisymmetricStiffening
 from .materials.base import cauchy_stress
 
 #: (row, column) of the five non-zero components of F, order used throughout.
@@ -195,15 +195,18 @@ class AxisymmetricSolid:
         self._merged = self._merge_neo_hooke_regions()
 
     def _merge_neo_hooke_regions(self):
-        """One :class:`PointwiseNeoHooke` for a body made only of neo-Hookean regions (layers)
-        covering every quadrature point once, else None."""
-        if len(self.regions) < 2 or not all(type(m) is NeoHooke for _, m in self.regions):
+        """One :class:`~.materials.axisymmetric_hyperelastic.AxisymmetricStiffening` for a body made
+        only of neo-Hookean regions, with or without strain stiffening (a half-space, bonded
+        layers), covering every quadrature point once, else None."""
+        if not all(type(m) in (NeoHooke, NeoHookeStiffening) for _, m in self.regions):
             return None
-        mu, lam, count = np.zeros(self.r.shape), np.zeros(self.r.shape), np.zeros(self.r.shape, dtype=int)
+        mu, lam, c20 = np.zeros(self.r.shape), np.zeros(self.r.shape), np.zeros(self.r.shape)
+        count = np.zeros(self.r.shape, dtype=int)
         for ix, m in self.regions:
             mu[ix], lam[ix] = m.lame
+            c20[ix] = getattr(m, "C20_kPa", 0.0)
             count[ix] += 1
-        return PointwiseNeoHooke(mu, lam) if np.all(count == 1) else None
+        return AxisymmetricStiffening(mu, lam, c20) if np.all(count == 1) else None
 
     def _selected_shape(self, sel):
         return np.zeros(self.r.shape)[sel].shape
@@ -240,8 +243,7 @@ class AxisymmetricSolid:
         if self._merged is not None:
             if want_tangent:
                 return self._merged.tangent_components(F, F_COMPONENTS)
-            P = self._merged.stress(F)
-            return np.stack([P[i, j] for i, j in F_COMPONENTS]), None
+            return self._merged.stress_components(F, F_COMPONENTS), None
         P5 = np.empty((5,) + F.shape[2:])
         A55 = np.empty((5, 5) + F.shape[2:]) if want_tangent else None
         for (ix, _), mat in zip(self.regions, self._active):

@@ -126,11 +126,12 @@ class NeoHooke(Material):
 
 
 class PointwiseNeoHooke:
-    """The neo-Hookean law with Lame parameters given per quadrature point.
+    """The neo-Hookean law with Lame parameters given per quadrature point (or replaced by their
+    derivatives: :meth:`NeoHooke.stress_parameter_derivative`), on the full 3 x 3 ``H``.
 
-    Several :class:`NeoHooke` regions of one body (bonded layers) evaluated in one
-    pass instead of one masked copy per region: the formulas of :class:`NeoHooke`
-    broadcast over parameter arrays shaped like the quadrature points.
+    The formulas of :class:`NeoHooke` broadcast over parameter arrays shaped like the
+    quadrature points. (A body's regions are evaluated together on the axisymmetric
+    components by :class:`~.axisymmetric_hyperelastic.AxisymmetricStiffening`.)
 
     Parameters
     ----------
