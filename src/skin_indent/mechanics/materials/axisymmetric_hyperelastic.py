@@ -81,32 +81,34 @@ class AxisymmetricStiffening:
         j = 1.0 + jm1
         return (3.0 + x) * jm1 + x, j, j * (2.0 * G - (2.0 / 3.0) * x * v)
 
+    def _stress(self, G, v, lnJ, x):
+        """``(P, (b, j, D) or None)``: the stress at the components and, with stiffening, the isochoric terms."""
+        P = self.mu * G + (self.lam * lnJ) * v
+        if not self.stiffening:
+            return P, None
+        b, j, D = self._isochoric(G, v, lnJ, x)
+        return P + (2.0 * self.c20 * b) * D, (b, j, D)
+
     def stress_components(self, H, pairs=COMPONENTS) -> np.ndarray:
         """First Piola stress (kPa) at the components ``pairs`` (:data:`COMPONENTS`), shape (5, ...)."""
         self._check(pairs)
-        G, v, lnJ, x = self._kinematics(H)
-        P = self.mu * G + (self.lam * lnJ) * v
-        if self.stiffening:
-            b, _, D = self._isochoric(G, v, lnJ, x)
-            P += (2.0 * self.c20 * b) * D
-        return P
+        return self._stress(*self._kinematics(H))[0]
 
     def tangent_components(self, H, pairs=COMPONENTS) -> tuple[np.ndarray, np.ndarray]:
         """``(P, A)``: the stress (5, ...) and the tangent dP/dF (5, 5, ...) at the components."""
         self._check(pairs)
         G, v, lnJ, x = self._kinematics(H)
+        P, isochoric = self._stress(G, v, lnJ, x)
         mu, lam = self.mu, self.lam
-        P = mu * G + (lam * lnJ) * v
         # M[p, q] = F^-T[k, J] F^-T[i, L] for p = (i, J), q = (k, L): from the 3 x 3 F^-T (zeros off the blocks)
         full = np.zeros((3, 3) + v.shape[1:])
         full[_ROWS, _COLS] = v
         M = full[_ROWS[None, :], _COLS[:, None]] * full[_ROWS[:, None], _COLS[None, :]]
         diagonal = mu
         A = (lam * v)[:, None] * v[None, :]
-        if self.stiffening:
+        if isochoric is not None:
             c = 2.0 * self.c20
-            b, j, D = self._isochoric(G, v, lnJ, x)
-            P += (c * b) * D
+            b, j, D = isochoric
             s = c * b * j
             I1 = 3.0 + x
             f = np.stack([1.0 + H[0, 0], H[0, 1], H[1, 0], 1.0 + H[1, 1], 1.0 + H[2, 2]])  # F at the components
