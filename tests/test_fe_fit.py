@@ -294,6 +294,7 @@ def test_a_second_layer_starts_above_and_below_the_fitted_one():
     from types import SimpleNamespace
 
     from skin_indent.fitting.multistart import Fitter
+    from skin_indent.fitting.starts import start_vectors
     from skin_indent.effects import effect
     from skin_indent.measurement import measurement_from_arrays, prepare
 
@@ -310,7 +311,7 @@ def test_a_second_layer_starts_above_and_below_the_fitted_one():
     fitter.fits[("layer",)] = SimpleNamespace(effects=("layer",), fit_parameters={
         "E_kPa": 7.0, "nu": 0.49, "thickness_mm": 3.6, "compliance": 0.0})
     model = fitter.model(("layer", "layer"))
-    starts = fitter.starts(model, ("layer", "layer"))
+    starts = start_vectors(fitter, model, ("layer", "layer"))
     names = model.parameter_names
     t1, c1, t2, c2 = (names.index(k) for k in ("thickness_mm", "compliance", "thickness2_mm", "compliance2"))
     assert np.allclose(starts[0][[t1, c1]], [3.6, 0.0])  # the nested start first
@@ -323,15 +324,15 @@ def test_a_second_layer_starts_above_and_below_the_fitted_one():
 
 def test_starts_are_ranked_by_what_they_add_to_the_simpler_model():
     """The screen's ranking: the misfit left by a b F_start + a F_nested (a, b >= 0)."""
-    from skin_indent.fitting.multistart import _blended
+    from skin_indent.fitting.starts import blended_misfit
 
     h = np.linspace(0.01, 0.6, 50)
     w = np.ones_like(h)
     nested, shape = h**1.5, h**2
     y = 0.7 * nested + 0.4 * shape
-    assert _blended(nested, shape, y, w) == pytest.approx(0.0, abs=1e-20)
-    assert _blended(nested, nested * 1.3, y, w) == pytest.approx(_blended(nested, -nested, y, w))  # nothing added
-    assert _blended(nested, -shape, y, w) > _blended(nested, shape, y, w)  # only a >= 0, b >= 0
+    assert blended_misfit(nested, shape, y, w) == pytest.approx(0.0, abs=1e-20)
+    assert blended_misfit(nested, nested * 1.3, y, w) == pytest.approx(blended_misfit(nested, -nested, y, w))  # nothing added
+    assert blended_misfit(nested, -shape, y, w) > blended_misfit(nested, shape, y, w)  # only a >= 0, b >= 0
 
 
 @pytest.mark.slow

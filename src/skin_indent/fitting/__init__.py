@@ -7,6 +7,7 @@
   point, Hertz comparison, fit quality) to a :class:`CurveFit`;
 - :mod:`.hertz`: :func:`fit_hertz`, Hertz fitted as AFM tools (nanite) fit it.
 - :mod:`.multistart`: the multistart fitter of any model (each set of effects fitted once);
+- :mod:`.starts`: where its fits start (start vectors) and, in the loop, the screen that ranks them;
 - :mod:`.rung`: one fitted model, :class:`~.rung.Rung`, its BIC and its residual in words.
 """
 

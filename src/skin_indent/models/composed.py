@@ -114,9 +114,8 @@ class ComposedModel:
         J = np.zeros((self.depth_mm.size, theta.size))
         wanted = np.zeros(theta.size, dtype=bool)
         wanted[np.arange(theta.size) if columns is None else columns] = True
-        in_loop = hasattr(self.core, "prefetch")
         first = 0
-        if in_loop:  # the core's own derivatives, carried through the later stages
+        if self.in_loop:  # the core's own derivatives, carried through the later stages
             ev = self.evaluate(theta)
             touch = ev.h_mm > 0
             Jc = self.core.jacobian(ev.h_mm[touch], theta[: self._n_core],
@@ -166,6 +165,12 @@ class ComposedModel:
     def cores(self) -> tuple:
         """The elastic cores of the model (one: its ``core``)."""
         return (self.core,)
+
+    @property
+    def in_loop(self) -> bool:
+        """The core is the finite-element model in the loop (a
+        :class:`~skin_indent.models.fe_core.FECore`), not a response surface."""
+        return hasattr(self.core, "prefetch")
 
     def screening(self):
         """Context of cheap runs that only rank start vectors (:meth:`~skin_indent.models.fe_core.FECore.screening`),
