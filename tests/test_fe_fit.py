@@ -17,7 +17,8 @@ import pytest
 from skin_indent.effects import Model, instances
 from skin_indent.mechanics.contact import SphericalIndenter
 from skin_indent.mechanics.mesh import graded_mesh
-from skin_indent.models.fe_core import FECore, morph
+from skin_indent.models.fe_core import FECore
+from skin_indent.models.fe_runs import morph
 from skin_indent.simulate import simulate
 
 R = 6.22
@@ -155,7 +156,7 @@ def test_a_run_that_fails_is_not_made_again(monkeypatch):
         calls.append(args)
         raise RuntimeError("Newton did not converge at depth 0.7 mm\nmore")
 
-    monkeypatch.setattr(fe_core, "_solve_unit", failing)
+    monkeypatch.setattr(fe_core, "solve_unit", failing)
     one = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
     theta = np.array([8.0, 0.45, 0.9, 0.0])
     for _ in range(2):

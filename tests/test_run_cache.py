@@ -151,7 +151,8 @@ def test_fe_core_keys_differ_with_everything_that_determines_a_run(tmp_path):
     """The key parts of a run: the sample as built, the radius, the depths solved, the mesh (its family
     member and the reference it was morphed from), the Newton tolerance, the sensitivities; no run is
     solved (nor any mesh built) here."""
-    from skin_indent.models.fe_core import FIRST, INCREMENTS, RTOL
+    from skin_indent.models.fe_core import RTOL
+    from skin_indent.models.fe_runs import FIRST, INCREMENTS
 
     cache = RunCache(tmp_path)
 
@@ -236,7 +237,7 @@ def test_a_failed_run_in_the_loop_is_not_tried_again_by_a_rerun(tmp_path, monkey
         calls.append(args)
         raise ConvergenceError("Newton did not converge at depth 0.7 mm\nmore")
 
-    monkeypatch.setattr(fe_core, "_solve_unit", failing)
+    monkeypatch.setattr(fe_core, "solve_unit", failing)
     theta = np.array([8.0, 0.45, 0.9, 0.0])
     for _ in range(2):  # two cores, as two processes: the second reads the failure
         core = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1,

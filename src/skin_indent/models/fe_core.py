@@ -70,6 +70,9 @@ from ..response_surface import RunFailed, nice_depth
 from ..response_surface.run_cache import module_digest
 from ..effects.base import stack_parameters
 from ..runtime.executors import available_cpus, make_executor
+from . import fe_runs
+from .fe_runs import (FIRST, INCREMENTS, as_arrays, from_arrays, geometry, material_parameters, morph, solve_unit,
+                      solved_depths)
 
 #: Newton tolerance of the runs in the loop: finite differences of relative step
 #: :data:`RELATIVE_STEP` need forces converged far below the step
@@ -78,12 +81,6 @@ RTOL = 1e-8
 RELATIVE_STEP = 1e-4
 #: a thickness may move by these factors before the mesh is rebuilt for it
 MORPH_RANGE = (0.8, 1.25)
-#: solved depths of a run (geometric, to the ceiling): on two layers over a half-space the
-#: spline between them is within 1.4e-3 of direct solves at 0.05 mm and 5e-4 beyond 0.1 mm
-#: (12, the default of simulate for a half-space, gives 2.8e-3 there; 30 gives 1.1e-3 at 1.3x the cost)
-INCREMENTS = 20
-#: the first solved depth of a run, as a fraction of its ceiling
-FIRST = 0.01
 #: solved depths of the runs within the iterations of a fit (:meth:`FECore.iterating`); the
 #: fit's result (force, Jacobian, covariance) comes from a run of :data:`INCREMENTS` at its
 #: end. Against runs of 40 on the coarse mesh (100 depths to 0.6 mm; one layer, two layers,
@@ -115,105 +112,6 @@ SECANT_REFRESH = 3
 WARM_DISTANCE = 0.2
 #: converged fields of this many recent runs are kept per core for warm starts (~0.5 MB each)
 WARM_KEPT = 12
-
-
-def solved_depths(sample, ceiling_mm: float, increments: int = INCREMENTS, first: float = FIRST) -> np.ndarray:
-    """The depths (mm) a unit run solves: ``increments`` geometric depths from ``first`` times the
-    ceiling to the ceiling, and a layered sample's depths near a rigid base
-    (:meth:`~skin_indent.mechanics.layers.LayeredSample.squeeze_depths_mm`)."""
-    depths = np.geomspace(first * ceiling_mm, ceiling_mm, increments)
-    squeeze = getattr(sample, "squeeze_depths_mm", None)  # a layer squeezed on a rigid base: depths near it
-    if squeeze is not None:
-        depths = np.union1d(depths, squeeze(ceiling_mm))
-    return depths
-
-
-def _solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float, sensitivities: bool,
-                increments: int = INCREMENTS, first: float = FIRST, initial=None):
-    """One unit-modulus run to the ceiling (a worker task) at the depths of :func:`solved_depths`,
-    warm-started from the fields ``initial`` (one per depth, or None) where given.
-
-    Returns the solved depths (mm), the forces there (mN), with ``sensitivities`` their
-    derivatives with respect to every material parameter (direct differentiation,
-    :mod:`skin_indent.mechanics.sensitivity`, else None), and the converged displacement
-    field at every solved depth (the warm start of a run nearby).
-    """
-    from ..mechanics.contact import SphericalIndenter
-    from ..simulate import simulate
-
-    depths = solved_depths(sample, ceiling_mm, increments, first)
-    curve = simulate(sample, SphericalIndenter(radius_mm), depths, mesh=imesh, rtol=rtol, solve_at_outputs=True,
-                     sensitivities=sensitivities, initial_fields=initial, keep_fields=True)
-    return curve.solved_depth_mm, curve.solved_force_mN, curve.sensitivities, curve.solved_fields
-
-
-def _as_arrays(run) -> dict:
-    """A unit run ``(depths, forces, sensitivities or None)`` as the named arrays the run cache keeps."""
-    h, F, S = run
-    out = {"depth_mm": np.asarray(h, dtype=float), "force_mN": np.asarray(F, dtype=float)}
-    for (k, name), values in (S or {}).items():
-        out[f"sensitivity/{int(k)}/{name}"] = np.asarray(values, dtype=float)
-    return out
-
-
-def _from_arrays(arrays: dict, sensitivities: bool) -> tuple:
-    """The unit run of :func:`_as_arrays`' arrays (the sensitivities None unless they were asked for)."""
-    S = {}
-    for name, values in arrays.items():
-        if name.startswith("sensitivity/"):
-            _, k, law_parameter = name.split("/", 2)
-            S[(int(k), law_parameter)] = values
-    return arrays["depth_mm"], arrays["force_mN"], S if sensitivities else None
-
-
-def material_parameters(sample) -> dict:
-    """``{(k, name): value}`` of every material parameter of a sample (k as in ``sample.materials``)."""
-    from ..mechanics.layers import LayeredSample
-
-    laws = sample.materials if isinstance(sample, LayeredSample) else [sample]
-    return {(k, name): float(getattr(law, name)) for k, law in enumerate(laws) for name in law.sensitivity_parameters}
-
-
-def morph(imesh, reference_mm, interfaces_mm, rigid_base: bool):
-    """``imesh`` (built for interfaces at depths ``reference_mm``) with its interfaces moved to ``interfaces_mm``.
-
-    Depths are mapped piecewise linearly between interfaces; below the last interface
-    of a half-space the shift decays linearly to zero at the bottom of the domain; with a
-    rigid base the last interface is the bottom of the mesh.
-
-    Parameters
-    ----------
-    imesh : IndentationMesh
-    reference_mm, interfaces_mm : sequence of float
-        Interface depths (mm, increasing) the mesh was built for and the new ones.
-    rigid_base : bool
-    """
-    from ..mechanics.mesh import IndentationMesh, with_named_boundaries
-
-    ref = np.r_[0.0, np.asarray(reference_mm, dtype=float)]
-    new = np.r_[0.0, np.asarray(interfaces_mm, dtype=float)]
-    p = imesh.mesh.p.copy()
-    d = -p[1]
-    bottom = float(d.max())
-    inside = d <= ref[-1]
-    mapped = np.interp(d, ref, new)
-    if not rigid_base:
-        shift = (new[-1] - ref[-1]) * np.clip((bottom - d) / (bottom - ref[-1]), 0.0, 1.0)
-        mapped = np.where(inside, mapped, d + shift)
-    p[1] = -mapped
-    mesh = type(imesh.mesh)(p, imesh.mesh.t)
-    lz = float(new[-1]) if rigid_base else bottom
-    return IndentationMesh(with_named_boundaries(mesh, imesh.extent_mm, lz), imesh.name + " (morphed)",
-                           imesh.contact_radius_mm, imesh.surface_size_mm, imesh.extent_mm)
-
-
-def _geometry(sample) -> tuple:
-    """What of a sample moves the mesh: the interface depths and whether the base is rigid."""
-    from ..mechanics.layers import LayeredSample
-
-    if not isinstance(sample, LayeredSample):
-        return ()
-    return (tuple(float(v) for v in sample.interfaces_mm), sample.rigid_base)
 
 
 class FECore:
@@ -517,17 +415,17 @@ class FECore:
         if len(keys) == 1 and not self._in_workers:
             key = keys[0]
             try:
-                value = _solve_unit(*tasks[key])
+                value = solve_unit(*tasks[key])
             except Exception as err:  # noqa: BLE001 - a run that does not converge is a failed evaluation
                 yield key, None, err
             else:
                 yield done(key, value, None)
         elif keys:
-            for key, value, error in self._pool().imap_unordered(_solve_unit, tasks.items()):
+            for key, value, error in self._pool().imap_unordered(solve_unit, tasks.items()):
                 yield done(key, value, error)
 
     def run_parts(self, args, reference_mm) -> dict:
-        """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of the run of :func:`_solve_unit`
+        """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of the run of :func:`solve_unit`
         arguments ``args`` (its mesh left out) on a mesh morphed from one built for the interfaces
         ``reference_mm`` (None: a half-space): the sample as built, the sphere radius, the depths
         solved (the increments and the first depth), the mesh (its family member, the reference
@@ -537,7 +435,7 @@ class FECore:
         to the Newton tolerance."""
         sample, radius_mm, ceiling_mm, _, rtol, sensitivities, increments, first = args[:8]
         reference = None if reference_mm is None else [float(v) for v in reference_mm]
-        return {"run": "skin_indent.models.fe_core unit-modulus run", "code": module_digest(sys.modules[__name__]),
+        return {"run": "skin_indent.models.fe_core unit-modulus run", "code": module_digest(sys.modules[__name__], fe_runs),
                 "sample": repr(sample), "radius_mm": float(radius_mm), "ceiling_mm": float(ceiling_mm),
                 "increments": int(increments), "first": float(first),
                 "depth_mm": solved_depths(sample, ceiling_mm, increments, first).tolist(),
@@ -546,7 +444,7 @@ class FECore:
                 "rtol": float(rtol), "sensitivities": bool(sensitivities)}
 
     def _solve(self, todo: dict, where: dict) -> dict:
-        """``{key: run or exception}`` of the runs ``todo`` (``{key: arguments of _solve_unit}``; ``where``:
+        """``{key: run or exception}`` of the runs ``todo`` (``{key: arguments of solve_unit}``; ``where``:
         ``{key: (rest, mesh serial, reference interfaces)}``): read from the run cache where it has them
         (a run with sensitivities also serves one without), else solved (and kept there)."""
         if not todo:
@@ -563,16 +461,16 @@ class FECore:
                 with contextlib.suppress(RunFailed):
                     arrays = self.run_cache.load(self.run_cache.key({**parts[key], "sensitivities": True}))
                     if arrays is not None:
-                        out[key] = _from_arrays(arrays, False)
+                        out[key] = from_arrays(arrays, False)
         rest = {key: p for key, p in parts.items() if key not in out}
         before = dict(self.run_cache.counts)
 
         def compute(keys):
             for key, run, error in self._compute(todo, where, keys):
-                yield key, None if run is None else _as_arrays(run), error
+                yield key, None if run is None else as_arrays(run), error
 
         for key, value in self.run_cache.get_or_compute_many(rest, compute).items():
-            out[key] = value if isinstance(value, BaseException) else _from_arrays(value, todo[key][5])
+            out[key] = value if isinstance(value, BaseException) else from_arrays(value, todo[key][5])
         solved = sum(self.run_cache.counts[k] - before[k] for k in ("computed", "failed"))
         self.made += solved
         self.cached += len(todo) - solved
@@ -635,7 +533,7 @@ class FECore:
         h_s, F_s, S = self._curves[self._key(rest)]
         sample0 = self.spec(rest).sample(merge=False)
         p0 = material_parameters(sample0)
-        geometry0 = _geometry(sample0)
+        geometry0 = geometry(sample0)
         wanted = set(range(1, theta.size)) if columns is None else {int(i) for i in np.arange(theta.size)[columns]}
         # unit-force derivatives (mN/kPa per unit) at the solved depths: by the chain rule, or numeric
         D = np.zeros((h_s.size, theta.size))
@@ -648,7 +546,7 @@ class FECore:
             tiny[i] = theta[i] + 1e-3 * (t[i] - theta[i])
             sample1 = self.spec(tiny[1:]).sample(merge=False)
             p1 = material_parameters(sample1)
-            if S is not None and _geometry(sample1) == geometry0 and p1.keys() == p0.keys():
+            if S is not None and geometry(sample1) == geometry0 and p1.keys() == p0.keys():
                 dd = tiny[i] - theta[i]
                 D[:, i] = sum((S[k] * (p1[k] - p0[k]) / dd for k in p0 if p1[k] != p0[k]), np.zeros_like(F_s))
             else:
