@@ -128,6 +128,32 @@ def test_remote_workers_running_other_sources_are_refused(tmp_path):
     assert {e["status"] for e in manifest["runs"].values()} == {"failed"}
 
 
+class OtherSources(PretendRemote):
+    """A pretend cluster whose workers report other forward-model sources than this installation's."""
+
+    def imap_unordered(self, fn, tasks):
+        for tag, out, error in super().imap_unordered(fn, tasks):
+            yield tag, (None if out is None else {**out, "code": "000000000000"}), error
+
+
+def test_an_effect_surface_refuses_runs_of_other_sources_as_a_response_surface_does(tmp_path):
+    """Effect surfaces make their runs as response surfaces do (``make_runs``): a remote worker
+    running other forward-model sources gives no data, and the store says why."""
+    from skin_indent.effects import EffectAxis
+    from skin_indent.models.effect_surface import EffectSurface
+
+    grid = SurfaceGrid(np.linspace(0.01, 0.05, 5), np.array([1.0, 10.0]), np.array([0.3, 0.45]))
+    axes = (EffectAxis("C20_over_E", (0.0, 1.0), "linear"),)
+    with pytest.warns(RuntimeWarning, match="install the same skin_indent"):
+        s = EffectSurface.build(("stiffening",), axes, grid, radius_mm=1.0, mesh="coarse", cache_dir=tmp_path,
+                                executor=OtherSources())
+    assert len(s.failures) == 4 and all("install the same skin_indent" in why for why in s.failures.values())
+    entries = [e for m in tmp_path.glob("runs/*/manifest.json") for e in json.loads(m.read_text())["runs"].values()]
+    assert len(entries) == 4 and all(e["status"] == "failed" and "install the same" in e["reason"] for e in entries)
+    with pytest.raises(ValueError, match="misses 4 run"):
+        s.force(grid.depth_mm, np.array([5.0, 0.4, 0.5]))
+
+
 # ------------------------------------------------------------------ on a LocalCluster
 
 

@@ -38,7 +38,7 @@ from ..effects import ELASTIC, EffectAxis, effect
 from ..effects import Model
 from ..response_surface import NodeForces, ResponseSurface
 from ..response_surface import RunStore
-from ..response_surface import resolve_model, run_key, run_task
+from ..response_surface import Job, expected_code_of, make_runs, resolve_model, run_key
 from ..runtime.executors import make_executor
 from ..runtime.log import progress_bar
 
@@ -167,57 +167,29 @@ class EffectSurface:
         if not pending:
             return cls(effects, axes, surfaces, radius_mm)
         # all missing runs of all sub-surfaces in one stream, so that every worker stays busy
-        tasks, stores = [], {}
+        jobs, stores = [], {}
         for idx, curve, settings in pending:
             curve, canonical = resolve_model(curve, settings)
             key = run_key(canonical, depth)
             stores[idx] = store = RunStore(cache_dir / "runs" / key[:24], key, canonical, depth)
-            tasks += [((idx, float(nu)), (curve, float(nu), depth)) for nu in grid.nu if store.load(nu) is None]
+            code = expected_code_of(canonical)
+            jobs += [Job((idx, float(nu)), store, float(nu), (curve, float(nu), depth), code)
+                     for nu in grid.nu if store.load(nu) is None]
         owned = executor is None
         ex = executor if executor is not None else make_executor(workers, client=client, scheduler=scheduler,
-                                                                 tasks=len(tasks))
-        log.info("%s surface R = %g mm, mesh %s: %d finite-element run%s to make (%d sub-surfaces, %d incomplete)",
-                 " + ".join(effects), radius_mm, mesh, len(tasks), "s" if len(tasks) != 1 else "", surfaces.size,
-                 len(pending))
-        bar = progress_bar(progress, total=len(tasks), desc=" + ".join(effects) + " surface", unit="run")
-        claims, busy = {}, []  # runs computed here under their locks; runs another builder computes
-
-        def claimed():
-            for (idx, nu), args in tasks:  # each run under its lock, after checking it is not done meanwhile
-                lock = stores[idx].claim(nu)
-                if lock is None:
-                    busy.append((idx, nu))
-                    continue
-                stores[idx].refresh()
-                if stores[idx].load(nu) is not None:
-                    lock.release()
-                    bar.update()
-                    continue
-                claims[idx, nu] = lock
-                yield (idx, nu), args
-
+                                                                 tasks=len(jobs))
+        what = f"{' + '.join(effects)} surface R = {radius_mm:g} mm, mesh {mesh}"
+        log.info("%s: %d finite-element run%s to make (%d sub-surfaces, %d incomplete)", what, len(jobs),
+                 "s" if len(jobs) != 1 else "", surfaces.size, len(pending))
+        bar = progress_bar(progress, total=len(jobs), desc=" + ".join(effects) + " surface", unit="run")
         try:
-            for (idx, nu), out, error in ex.imap_unordered(run_task, claimed()):
-                bar.update()
-                try:
-                    if error is not None:
-                        stores[idx].record_failed(nu, f"{type(error).__name__}: {' '.join(str(error).split())}")
-                    elif out["values"] is None:
-                        stores[idx].record_failed(nu, out["reason"], worker=out["worker"])
-                    else:
-                        stores[idx].record_done(nu, out["values"], seconds=out["seconds"],
-                                                cpu_seconds=out.get("cpu_seconds"), worker=out["worker"])
-                finally:
-                    claims.pop((idx, nu)).release()
-            for idx, nu in busy:  # wait for the other builder; a run it could not finish stays missing
-                stores[idx].claim(nu, wait=True).release()
-                bar.update()
+            for _ in make_runs(jobs, lambda n: (ex, False), bar=bar, what=what):
+                pass  # recorded in the stores as they arrive
             for idx, curve, settings in pending:  # assembled from the store; failed runs stay missing
+                again = _FailAgain(stores[idx].failed())
                 surfaces[idx] = ResponseSurface.load_or_build(grid, settings, curve, cache_dir=cache_dir,
-                                                              progress=False, executor=_FailAgain())
+                                                              progress=False, executor=again)
         finally:
-            for lock in claims.values():
-                lock.release()
             bar.close()
             if owned:
                 ex.close()
@@ -331,8 +303,13 @@ class _Never(Executor):
 
 
 class _FailAgain(Executor):
-    """Reports the runs that just failed as failed again, without rerunning them."""
+    """Reports the runs that just failed as failed again, with the reason their store recorded,
+    without rerunning them."""
+
+    def __init__(self, reasons: dict):
+        self.reasons = reasons
 
     def imap_unordered(self, fn, tasks):
-        for tag, _args in tasks:
-            yield tag, None, RuntimeError("failed in this build (see the run manifest)")
+        for tag, (_curve, nu, _depth) in tasks:
+            yield tag, {"values": None, "reason": self.reasons.get(nu, "failed in this build (see the run manifest)"),
+                        "worker": None}, None

@@ -58,7 +58,8 @@ as they arrive: see :class:`RunStore` for the manifest, checksums and the lock t
 let a killed build resume without recomputing finished runs and several builds share
 one cache. A run that fails (``ConvergenceError``, bad values, a worker that died) is
 listed with its reason, its column is NaN, interpolation that needs it says so, and
-the next build retries it. :func:`run_batch` runs other batches of forward runs the
+the next build retries it (:func:`make_runs`, which the effect surfaces of
+:mod:`skin_indent.models` share). :func:`run_batch` runs other batches of forward runs the
 same way.
 
 Single runs outside the surfaces (the finite-element model in the loop of a fit, the
@@ -68,16 +69,18 @@ that determines it, so that the same diagnosis run again solves nothing.
 """
 
 
-from ._cache import default_cache_dir, default_settings, default_unit_curve, resolve_model, run_key, run_task, settings_hash
+from ._cache import (default_cache_dir, default_settings, default_unit_curve, expected_code_of, resolve_model, run_key,
+                     run_task, settings_hash)
 from ..runtime.executors import (DASK_MISSING, DaskExecutor, Executor, InProcess, LocalProcesses, WorkerDied, make_executor,
                          run_batch)
 from ._grid import NICE_DEPTHS, SurfaceGrid, nice_depth, parse_range
+from ._runs import Job, make_runs
 from ._store import RunStore
 from .run_cache import RunCache, RunFailed
 from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, NodeForces, ResponseSurface
 
 __all__ = [
-    "resolve_model", "run_key", "run_task",
+    "resolve_model", "run_key", "run_task", "expected_code_of", "Job", "make_runs",
     "NICE_DEPTHS", "nice_depth",
     "SurfaceGrid",
     "ResponseSurface",

@@ -13,11 +13,12 @@ from typing import Mapping
 
 import numpy as np
 
-from ._cache import (UnitCurve, atomic_savez, canonical_json, expected_code_of, resolve_model, run_key, run_task,
+from ._cache import (UnitCurve, atomic_savez, canonical_json, expected_code_of, resolve_model, run_key,
                      default_cache_dir, settings_hash)
 from ..runtime.executors import Executor, import_distributed, make_executor
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
+from ._runs import Job, make_runs
 from ._store import RunStore
 from ..runtime.log import progress_bar
 
@@ -239,77 +240,20 @@ class ResponseSurface:
             log.debug("%s: all %d runs cached in %s", what, nus.size, store.dir)
         bar = progress_bar(progress, total=nus.size, initial=nus.size - len(todo), desc="response surface",
                            unit="run")
-        claims: dict = {}  # k -> the run's lock, held while this builder computes it
-        busy: list = []  # runs another builder is computing: waited for afterwards
-
-        def tasks(indices):
-            for k in indices:
-                if store is not None:
-                    lock = store.claim(nus[k])
-                    if lock is None:
-                        busy.append(k)
-                        continue
-                    store.refresh()  # under the run's lock: is it done meanwhile? (a stat, or a re-read)
-                    done = store.load(nus[k])
-                    if done is not None:
-                        lock.release()
-                        f[:, k] = done
-                        bar.update()
-                        continue
-                    claims[k] = lock
-                yield k, (unit_curve, float(nus[k]), depth)
-
-        def fail(k, nu, reason, worker=None):
-            failures[nu] = reason
-            if store is not None:
-                store.record_failed(nu, reason, worker=worker)
-            warnings.warn(f"forward run at nu = {nu:g} failed ({reason}); column left missing",
-                          RuntimeWarning, stacklevel=4)
-
-        def compute(indices):
-            ex, owned = _choose_executor(unit_curve, workers, client, scheduler, executor, len(indices))
-            # remote workers may run another installation: check what they ran (local
-            # processes run this one, which may be edited meanwhile in development)
-            expected_code = expected_code_of(settings) if ex.remote else None
-            try:
-                for k, out, error in ex.imap_unordered(run_task, tasks(indices)):
-                    nu = float(nus[k])
-                    bar.update()
-                    try:
-                        if error is not None:  # the call did not come back (worker died, ...)
-                            why = " ".join(str(error).split())
-                            fail(k, nu, f"{type(error).__name__}: {why}" if why else type(error).__name__)
-                        elif expected_code is not None and out["code"] != expected_code:
-                            fail(k, nu, f"worker {out['worker']} runs other forward-model sources "
-                                        f"(src.{out['code']}, expected src.{expected_code}): install the same "
-                                        "skin_indent everywhere", out["worker"])
-                        elif out["values"] is None:
-                            fail(k, nu, out["reason"], out["worker"])
-                        else:
-                            f[:, k] = out["values"]  # streamed to disk now; nothing else is kept
-                            if store is not None:
-                                store.record_done(nu, out["values"], seconds=out["seconds"],
-                                                  cpu_seconds=out.get("cpu_seconds"), worker=out["worker"])
-                    finally:
-                        if k in claims:
-                            claims.pop(k).release()
-            finally:
-                if owned:
-                    ex.close()
-
+        # remote workers may run another installation: what they ran is checked (local processes run
+        # this one, which may be edited meanwhile in development)
+        code = expected_code_of(settings)
+        jobs = [Job(k, store, float(nus[k]), (unit_curve, float(nus[k]), depth), code) for k in todo]
         try:
-            pending = todo
-            while pending:
-                compute(pending)
-                pending, busy[:] = list(busy), []
-                if pending:  # other builders compute these: wait for them, then take what they left
-                    log.info("%s: waiting for %d run%s another process is computing", what, len(pending),
-                             "s" if len(pending) != 1 else "")
-                    for k in pending:
-                        store.claim(nus[k], wait=True).release()
+            for k, values, reason in make_runs(jobs, lambda n: _choose_executor(unit_curve, workers, client, scheduler,
+                                                                                 executor, n), bar=bar, what=what):
+                if values is None:
+                    failures[float(nus[k])] = reason
+                    warnings.warn(f"forward run at nu = {float(nus[k]):g} failed ({reason}); column left missing",
+                                  RuntimeWarning, stacklevel=2)
+                else:
+                    f[:, k] = values
         finally:
-            for lock in claims.values():
-                lock.release()
             bar.close()
         return cls(grid, f, settings=settings, failures=failures, **options)
 
