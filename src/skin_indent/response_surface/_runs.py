@@ -12,20 +12,25 @@ their runs in one stream so that every worker stays busy) make their runs here:
   settings name is refused, as a failure naming both digests;
 - runs another builder holds are waited for, then read, or made here if it left them
   undone.
+
+:func:`choose_executor` picks what runs them: the executor given, a Dask cluster, local
+processes, or this process.
 """
 
 from __future__ import annotations
 
 import logging
+import pickle
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
+from ..runtime.executors import Executor, make_executor
 from ._cache import run_task
 from ._store import RunStore
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Job", "make_runs"]
+__all__ = ["Job", "choose_executor", "make_runs"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +56,38 @@ class Job:
     nu: float
     args: tuple
     expected_code: str | None = None
+
+
+def choose_executor(unit_curve, workers, client, scheduler, executor, n_todo) -> tuple[Executor, bool]:
+    """``(executor, owned)`` of a stream of ``n_todo`` runs of ``unit_curve``: the given one, Dask,
+    local processes or this process (one run, or a callable that cannot be pickled and no
+    ``workers`` asked for). ``owned``: made here, to be closed after the stream."""
+    if executor is not None:
+        if workers is not None or client is not None or scheduler is not None:
+            raise ValueError("give executor= alone, without workers=, client= or scheduler=")
+        if not isinstance(executor, Executor):
+            raise TypeError(f"executor must be a skin_indent Executor, got {type(executor).__name__}")
+        executor.check_callable(unit_curve)
+        return executor, False
+    if client is not None or scheduler is not None:
+        ex = make_executor(workers, client=client, scheduler=scheduler)
+        try:
+            ex.check_callable(unit_curve)
+        except BaseException:
+            ex.close()
+            raise
+        return ex, True
+    if workers is None or workers > 1:
+        try:
+            pickle.dumps(unit_curve)
+        except Exception as exc:
+            if workers is not None:
+                raise TypeError(f"unit_curve cannot be pickled for workers={workers} ({exc}); use a "
+                                "module-level function or a functools.partial of one, or workers=1") from None
+            workers = 1
+    if n_todo <= 1:
+        workers = 1
+    return make_executor(workers, tasks=n_todo), True
 
 
 def make_runs(jobs: list[Job], executor_for: Callable, *, bar, what: str) -> Iterator[tuple]:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import logging
 import os
-import pickle
 import warnings
 import zipfile
 from pathlib import Path
@@ -15,10 +14,10 @@ import numpy as np
 
 from ._cache import (UnitCurve, atomic_savez, canonical_json, expected_code_of, resolve_model, run_key,
                      default_cache_dir, settings_hash)
-from ..runtime.executors import Executor, import_distributed, make_executor
+from ..runtime.executors import Executor, import_distributed
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
-from ._runs import Job, make_runs
+from ._runs import Job, choose_executor, make_runs
 from ._store import RunStore
 from ..runtime.log import progress_bar
 
@@ -44,36 +43,6 @@ def _describe(settings, grid) -> str:
     radius = settings.get("radius_mm")
     return (f"response surface{'' if radius is None else f' R = {radius:g} mm'}{where} "
             f"({grid.nu.size} nu x {grid.depth_mm.size} depths)")
-
-
-def _choose_executor(unit_curve, workers, client, scheduler, executor, n_todo) -> tuple[Executor, bool]:
-    """``(executor, owned)``: the given one, Dask, local processes or this process."""
-    if executor is not None:
-        if workers is not None or client is not None or scheduler is not None:
-            raise ValueError("give executor= alone, without workers=, client= or scheduler=")
-        if not isinstance(executor, Executor):
-            raise TypeError(f"executor must be a skin_indent Executor, got {type(executor).__name__}")
-        executor.check_callable(unit_curve)
-        return executor, False
-    if client is not None or scheduler is not None:
-        ex = make_executor(workers, client=client, scheduler=scheduler)
-        try:
-            ex.check_callable(unit_curve)
-        except BaseException:
-            ex.close()
-            raise
-        return ex, True
-    if workers is None or workers > 1:
-        try:
-            pickle.dumps(unit_curve)
-        except Exception as exc:
-            if workers is not None:
-                raise TypeError(f"unit_curve cannot be pickled for workers={workers} ({exc}); use a "
-                                "module-level function or a functools.partial of one, or workers=1") from None
-            workers = 1
-    if n_todo <= 1:
-        workers = 1
-    return make_executor(workers, tasks=n_todo), True
 
 
 class ResponseSurface:
@@ -245,7 +214,7 @@ class ResponseSurface:
         code = expected_code_of(settings)
         jobs = [Job(k, store, float(nus[k]), (unit_curve, float(nus[k]), depth), code) for k in todo]
         try:
-            for k, values, reason in make_runs(jobs, lambda n: _choose_executor(unit_curve, workers, client, scheduler,
+            for k, values, reason in make_runs(jobs, lambda n: choose_executor(unit_curve, workers, client, scheduler,
                                                                                  executor, n), bar=bar, what=what):
                 if values is None:
                     failures[float(nus[k])] = reason
