@@ -379,3 +379,64 @@ def test_effect_surface_spline_weights_are_the_spline(n_nodes):
         direct = make_interp_spline(nodes, values, k=min(3, n_nodes - 1), axis=0)(x)
         weighted = np.tensordot(_spline_weights(nodes, x), values, axes=(0, 0))
         assert np.allclose(weighted, direct, rtol=0, atol=1e-12 * np.abs(values).max())
+
+
+def _synthetic_effect_surface(g):
+    """A stiffening-like effect surface whose runs are Hertz-like curves times exp(g(c)) at the nodes
+    c of its axis (it interpolates log f across them: g itself, in the axis's coordinate)."""
+    from skin_indent.effects import EffectAxis
+    from skin_indent.models.effect_surface import EffectSurface
+
+    grid = SurfaceGrid(np.linspace(0.006, 0.6, 100), np.geomspace(0.1, 100.0, 8), np.array([0.3, 0.42, 0.46, 0.49]))
+    axis = EffectAxis("C20_over_E", (0.0, 1.0, 2.0, 3.0, 4.0, 5.5, 7.0), "linear")
+    hertz = np.column_stack([4 / 3 / (1 - nu**2) * np.sqrt(6.22) * grid.depth_mm**1.5 for nu in grid.nu])
+    surfaces = np.empty(len(axis.nodes), dtype=object)
+    for i, c in enumerate(axis.nodes):
+        surfaces[i] = ResponseSurface(grid, hertz * np.exp(g(c)), settings={"model": "synthetic", "node": c})
+    return EffectSurface(("stiffening",), (axis,), surfaces, 6.22), grid
+
+
+@pytest.mark.parametrize("g", [lambda c: 0.02 * np.exp(0.9 * c), lambda c: np.log(c + 0.2),
+                               lambda c: 0.5 * np.sqrt(c + 0.05), lambda c: 2 * np.tanh(2 * (c - 3))],
+                         ids=["exp", "log", "sqrt", "tanh"])
+def test_the_interpolation_error_estimate_of_an_effect_surface(g):
+    """``interpolation_error`` (cubic against quadratic splines at the centre of the cell): 0 at the
+    nodes and where the interpolated function is quadratic (both splines exact); above the model
+    error of 0.3 % wherever the cubic interpolation of a steep monotonic function is off by more
+    than 1 % (what flags a fit there), and not where it is good to 0.1 %."""
+    h = np.linspace(0.06, 0.6, 40)
+    flat, _ = _synthetic_effect_surface(lambda c: 0.05 * c**2 - 0.1 * c)
+    surface, _ = _synthetic_effect_surface(g)
+    for c in (0.0, 2.0, 5.5):  # a node of the axis, at a nu node: the runs themselves
+        assert surface.interpolation_error(h, [10.0, 0.46, c]) == pytest.approx(0.0, abs=1e-12)
+    flagged, errors = [], []
+    for c in np.linspace(0.05, 6.95, 120):
+        assert flat.interpolation_error(h, [10.0, 0.46, c]) < 1e-10
+        exact = 10.0 * 4 / 3 / (1 - 0.46**2) * np.sqrt(6.22) * h**1.5 * np.exp(g(c))
+        errors.append(float(np.max(np.abs(surface.force(h, [10.0, 0.46, c]) / exact - 1))))
+        flagged.append(surface.interpolation_error(h, [10.0, 0.46, c]) > 0.003)
+    errors, flagged = np.array(errors), np.array(flagged)
+    assert np.any(errors > 0.01) and np.all(flagged[errors > 0.01])
+    if np.sum(errors < 0.001) > 5:  # where the spline is good (whole cells of it), not everything is flagged
+        assert not np.all(flagged[errors < 0.001])
+
+
+def test_a_fit_where_an_effect_surface_is_not_exact_is_flagged():
+    """:func:`~skin_indent.fitting.surfaces.interpolation_flags`: a flag naming the surface and the
+    estimate where it exceeds the model error the fits allow, none at a node."""
+    from skin_indent.fitting.rung import MODEL_ERROR
+    from skin_indent.fitting.surfaces import interpolation_flags
+    from skin_indent.measurement import measurement_from_arrays, prepare
+    from skin_indent.models import ComposedModel
+
+    steep, _ = _synthetic_effect_surface(lambda c: 0.02 * np.exp(1.2 * c))
+    depth = np.linspace(0.0, 0.6, 61)
+    data = prepare(measurement_from_arrays(depth, 10.0 * depth**1.5, source="synthetic"), segments=("approach",),
+                   contact="origin")
+    model = ComposedModel(steep, ("stiffening",), data)
+    assert interpolation_flags(model, [10.0, 0.46, 5.5]) == []
+    between = [10.0, 0.46, 6.2]
+    assert steep.interpolation_error(data.depth_mm[data.depth_mm >= 0.06], between) > MODEL_ERROR
+    (flag,) = interpolation_flags(model, between)
+    assert flag.startswith("the neo-hooke+stiffening surface interpolates the fitted parameters to about")
+    assert "the values are approximate" in flag

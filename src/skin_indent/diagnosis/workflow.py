@@ -63,6 +63,7 @@ from ..measurement.scale import Name, Quantity, UnitText
 from .evidence import suggest_measurement
 from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_sample, sample_noise
 from ..fitting.scale_checks import contact_points, points_flags
+from ..fitting.surfaces import interpolation_flags
 from ..fitting.multistart import Fitter
 from ..fitting.rung import Rung
 from ..models.composed import at_physical_limit
@@ -411,6 +412,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     std, std_source, not_determined, predictions = determine(fitter, final)
     # fewer points in contact than the last rung's parameters need to be judged (5 each): said in a note
     notes += points_flags(contact_points(data), final.n_free)
+    notes += interpolation_flags(final.bound_model, final.x)  # the last rung's surface, where it is not exact
     if std != final.std:
         scores.rungs[key] = dataclasses.replace(final, std=std)
 

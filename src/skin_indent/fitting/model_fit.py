@@ -29,6 +29,7 @@ from .multistart import Fitter
 from .rung import evidence
 from .sample_fit import sample_fit_of
 from .scale_checks import MISFIT_FLAG
+from .surfaces import interpolation_flags
 from ..models import HertzModel
 from ..models.composed import at_physical_limit
 from ..runtime.context import context_of
@@ -245,6 +246,7 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
         if s["in_tension"]:
             flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
                          f"({s['tension_sd']:.1f} combined sd apart)")
+    flags += interpolation_flags(rung.bound_model, rung.x)
     notes = list(prepared.notes)
     notes += [UnitText("{name} held at {value:g}", name=Name(name), value=Quantity(v, name))
               for name, v in fitter.fixed.items() if name in p]

@@ -24,6 +24,7 @@ from ..models.composed import at_physical_limit
 from ..runtime.json_io import jsonable
 from .knowledge import DETERMINED_BY
 from .rung import evidence
+from .surfaces import interpolation_flags
 from .scale_checks import MISFIT_FLAG, contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
 
 
@@ -115,6 +116,7 @@ def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
     flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
              for name in rung.at_bounds if not _physical(rung, name)]
     flags += modulus_flags(rung.parameters.get("E_kPa", math.nan))
+    flags += interpolation_flags(rung.bound_model, rung.x)
     curves, predictions = [], []
     for (k, c, noise, sl, params), white in zip(fitter.parts(rung), rung.curve_white):
         r = np.asarray(rung.residuals_mN)[sl]

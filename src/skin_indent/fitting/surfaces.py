@@ -5,7 +5,9 @@
   F = E R^2 phi(h/R, nu).
 - :func:`elastic_core`: the elastic force model a fitted model needs for its elastic
   effects (none: the neo-Hookean surface; one: an effect surface over its axes, on a
-  grid sized to the curve; more, e.g. two layers: the finite-element model in the loop).
+  grid sized to the curve; more, e.g. two layers: the finite-element model in the loop);
+- :func:`interpolation_flags`: a flag where an effect surface interpolates a fit's
+  parameters less accurately than the error the fits allow for the model.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from ..effects import ELASTIC
 from ..effects import instances
 from ..models.effect_surface import EffectSurface
 from ..models.fe_core import FECore
+from .rung import MODEL_ERROR
 
 #: Depth ceilings h/R of the unit-radius surfaces that :func:`surface_for` reuses for
 #: every radius (the mesh is designed for the ceiling: the smallest one that covers
@@ -121,3 +124,31 @@ def elastic_core(effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: 
     grid = curve_grid(e_star_kPa, max_depth_mm, EFFECT_NU)
     return EffectSurface.build((e.name,), tuple(e.surface_axes(grid.depth_mm[-1])), grid, radius_mm=radius_mm,
                                mesh=mesh, **kw)
+
+
+def interpolation_flags(model, x) -> list[str]:
+    """Flags of the effect surfaces of ``model`` (a fitted model: one curve's, or a joint one's
+    parts) that interpolate its parameters ``x`` less accurately than :data:`MODEL_ERROR`, the
+    model error the fits allow: :meth:`EffectSurface.interpolation_error` over the depths the
+    curve reaches (from a tenth of the deepest). A surface of the neo-Hookean half-space is
+    not checked (its interpolation is within 1e-4, :mod:`skin_indent.response_surface`).
+    """
+    x = np.asarray(x, dtype=float)
+    parts = getattr(model, "parts", None)
+    pieces = [(p, x[model.index(k)]) for k, p in enumerate(parts)] if parts is not None else [(model, x)]
+    flags = []
+    for part, theta in pieces:
+        core = part.core
+        if not isinstance(core, EffectSurface):
+            continue
+        h = part.evaluate(theta).h_mm
+        h = h[h >= 0.1 * h.max()] if h.size and h.max() > 0 else h[:0]
+        if not h.size:
+            continue
+        error = core.interpolation_error(h, theta[: len(core.parameter_names)])
+        if error > MODEL_ERROR:
+            flags.append(f"the {core.name} surface interpolates the fitted parameters to about {error:.1%} "
+                         f"(its cubic and quadratic splines between the finite-element runs differ by that much; "
+                         f"the fit allows {MODEL_ERROR:.1%} for the model): the values are approximate")
+    return flags
+

@@ -225,14 +225,15 @@ class EffectSurface:
         self._last = (key, out)
         return out
 
-    def unit_force(self, depth_mm, nu: float, unit_values) -> np.ndarray:
+    def unit_force(self, depth_mm, nu: float, unit_values, *, degree: int = 3) -> np.ndarray:
         """f(h; nu, unit parameters), mN at E = 1 kPa.
 
         Tensor-product splines of log f over the effect axes and over nu in the
         coordinate ``log(0.5 - nu)``: a layer confined by a stiff base stiffens like
         ``1 / (1 - 2 nu)`` towards incompressibility, a straight line there. The spline of
         each axis is linear in the node values, so the interpolant is one weighted sum of
-        the node values: weights the outer product of every axis' spline weights.
+        the node values: weights the outer product of every axis' spline weights. ``degree``:
+        of the splines (3; 2 for :meth:`interpolation_error`).
         """
         h = np.asarray(depth_mm, dtype=float)
         V, positive = self._node_forces(h)
@@ -241,10 +242,36 @@ class EffectSurface:
             self._node_coords.append(tuple(float(v) for v in np.log(0.5 - self.grid.nu)[::-1]))
         w = np.ones(1)
         for a, nodes, x in zip(self.axes, self._node_coords, unit_values):
-            w = np.multiply.outer(w, _weight_spline(nodes)(float(a.coords(x)))).ravel()
-        w = np.multiply.outer(w, _weight_spline(self._node_coords[-1])(float(np.log(0.5 - nu)))[::-1]).ravel()
+            w = np.multiply.outer(w, _weight_spline(nodes, degree)(float(a.coords(x)))).ravel()
+        w = np.multiply.outer(w, _weight_spline(self._node_coords[-1], degree)(float(np.log(0.5 - nu)))[::-1]).ravel()
         out = (w @ V.reshape(w.size, -1)).reshape(h.shape)
         return np.exp(out) if positive else out
+
+    def interpolation_error(self, depth_mm, theta) -> float:
+        """How far the interpolation between the finite-element runs may be off around ``theta``: the
+        largest relative difference, over ``depth_mm``, between the force of the surface's cubic
+        splines and that of quadratic splines through the same nodes, at the centre of the cell of
+        nodes that holds ``theta`` (on an axis where ``theta`` is at a node, at that node: nothing is
+        interpolated along it). A property of the cell, not of the point: two splines can cross
+        inside a cell where neither is exact.
+
+        Checked against the truth: on the layer surface of the forearm-like curve (R = 6.22 mm,
+        depths to 0.6 mm; ``benchmarks/README.md``, finite-element runs at the centres of 24 cells
+        at two nu) it exceeds 0.3 % at the 6 centres whose force is off by more than 0.4 % (by
+        4.4-5.8 % where it is 2.2-2.6 %: a thin layer squeezed on a nearly rigid base), and nowhere
+        else; on smooth monotonic functions (``tests/test_response_surface.py``) it exceeds 0.3 %
+        wherever the cubic interpolation is off by more than 1 %. Under-resolved oscillations
+        between nodes escape it, as they escape any estimate made from the nodes.
+        """
+        theta = self._check(theta)
+        h = np.asarray(depth_mm, dtype=float)
+        values = [_cell_centre(a.coords, a.node_coords, x, a) for a, x in zip(self.axes, theta[2:])]
+        nu_nodes = np.log(0.5 - self.grid.nu)[::-1]
+        nu = 0.5 - np.exp(_cell_centre(lambda v: np.log(0.5 - v), nu_nodes, theta[1], None))
+        cubic = self.unit_force(h, nu, values)
+        quadratic = self.unit_force(h, nu, values, degree=2)
+        ok = np.abs(cubic) > 0
+        return float(np.max(np.abs(quadratic[ok] / cubic[ok] - 1.0), initial=0.0))
 
     def force(self, depth_mm, theta) -> np.ndarray:
         """Force (mN) at the depths (mm) for ``theta = (E_kPa, nu, effect parameters...)``."""
@@ -268,14 +295,30 @@ class EffectSurface:
         return J
 
 
+def _cell_centre(coords, nodes, value: float, axis):
+    """The centre, in the interpolation coordinate ``coords``, of the cell of ``nodes`` (increasing
+    coordinates) that holds ``value``, as a value of the parameter (``axis``: an EffectAxis, or None
+    for the coordinate itself); ``value`` itself where it is at a node."""
+    nodes = np.asarray(nodes, dtype=float)
+    x = float(coords(value))
+    span = nodes[-1] - nodes[0]
+    if np.min(np.abs(nodes - x)) <= 1e-9 * max(span, 1e-300):
+        return x if axis is None else float(value)
+    i = int(np.clip(np.searchsorted(nodes, x) - 1, 0, nodes.size - 2))
+    centre = 0.5 * (nodes[i] + nodes[i + 1])
+    if axis is None:
+        return centre
+    return float(np.exp(centre) - axis.shift) if axis.coordinate == "log" else float(centre)
+
+
 @functools.lru_cache(maxsize=256)
-def _weight_spline(nodes: tuple):
-    """The interpolating spline of the identity at ``nodes`` (cubic, not-a-knot, with 4 or more nodes;
-    else of degree n - 1): its value at x holds the weight of every node."""
+def _weight_spline(nodes: tuple, degree: int = 3):
+    """The interpolating spline of the identity at ``nodes`` (of ``degree``, not-a-knot, with
+    more nodes than that; else of degree n - 1): its value at x holds the weight of every node."""
     from scipy.interpolate import make_interp_spline  # lazy: scipy.interpolate is slow to import
 
     x = np.asarray(nodes, dtype=float)
-    return make_interp_spline(x, np.eye(x.size), k=min(3, x.size - 1), axis=0)
+    return make_interp_spline(x, np.eye(x.size), k=min(degree, x.size - 1), axis=0)
 
 
 def _spline_weights(nodes, x) -> np.ndarray:
