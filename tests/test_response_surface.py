@@ -438,5 +438,5 @@ def test_a_fit_where_an_effect_surface_is_not_exact_is_flagged():
     between = [10.0, 0.46, 6.2]
     assert steep.interpolation_error(data.depth_mm[data.depth_mm >= 0.06], between) > MODEL_ERROR
     (flag,) = interpolation_flags(model, between)
-    assert flag.startswith("the neo-hooke+stiffening surface interpolates the fitted parameters to about")
+    assert flag.startswith("the neo-hooke+stiffening surface (R = 6.22 mm) interpolates the fitted parameters to about")
     assert "the values are approximate" in flag

@@ -147,7 +147,8 @@ def interpolation_flags(model, x) -> list[str]:
             continue
         error = core.interpolation_error(h, theta[: len(core.parameter_names)])
         if error > MODEL_ERROR:
-            flags.append(f"the {core.name} surface interpolates the fitted parameters to about {error:.1%} "
+            flags.append(f"the {core.name} surface (R = {core.radius_mm:g} mm) interpolates the fitted parameters to "
+                         f"about {error:.1%} "
                          f"(its cubic and quadratic splines between the finite-element runs differ by that much; "
                          f"the fit allows {MODEL_ERROR:.1%} for the model): the values are approximate")
     return flags
