@@ -79,6 +79,17 @@ def test_the_page_shows_the_numbers_of_the_diagnosis(diag, tmp_path):
     assert 'name="generator" content="skin_indent ' in page  # the template's, not a hand-written page
 
 
+def test_the_page_shows_the_notes_of_the_diagnosis(diag, tmp_path):
+    """The notes the terminal report prints (``note: ...``) are on the page too, escaped."""
+    import dataclasses
+
+    noted = dataclasses.replace(diag, notes=["the surface interpolates the fitted parameters to about 2.6% <here>"])
+    page = write_report(noted, tmp_path).read_text()
+    assert "<h2>Notes</h2>" in page and "to about 2.6% &lt;here&gt;</li>" in page
+    assert "note: the surface interpolates the fitted parameters to about 2.6% <here>" in noted.report()
+    assert "<h2>Notes</h2>" not in write_report(dataclasses.replace(diag, notes=[]), tmp_path / "none").read_text()
+
+
 def test_the_template_loops_over_curves_with_one_provenance(diag, tmp_path):
     paths = diagnosis_page.figures(diag, tmp_path)
     prov = provenance(["skin-indent", "diagnose"], settings={"mesh": "coarse"}, surface=diag.surfaces)

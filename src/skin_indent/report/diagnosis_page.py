@@ -290,6 +290,7 @@ def page_context(diag, figure_paths=()) -> dict:
         "length": u.length, "force": u.force,
         "models": rows, "not_detectable": [(k, shown_in(v, u)) for k, v in diag.not_detectable.items()],
         "fe_note": FROM_FE if FROM_FE in diag.std_source.values() else "",
+        "notes": [shown_in(n, u) for n in diag.notes],
         "figures": [{"name": p.name, "alt": p.stem, "base64": base64.b64encode(p.read_bytes()).decode()}
                     for p in map(Path, figure_paths)],
     }
