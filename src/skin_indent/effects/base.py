@@ -205,6 +205,10 @@ class EffectAxis:
     def node_coords(self) -> np.ndarray:
         return self.coords(self.nodes)
 
+    def value(self, coordinate: float) -> float:
+        """The parameter value at an interpolation coordinate (the inverse of :meth:`coords`)."""
+        return float(np.exp(coordinate) - self.shift) if self.coordinate == "log" else float(coordinate)
+
 
 def stack_parameters(effects, bounds_of, names: list, lo: list, hi: list) -> list:
     """Append the fit parameters of ``effects`` (in order) to ``names``, their ranges to ``lo``, ``hi``.

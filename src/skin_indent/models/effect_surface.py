@@ -265,9 +265,8 @@ class EffectSurface:
         """
         theta = self._check(theta)
         h = np.asarray(depth_mm, dtype=float)
-        values = [_cell_centre(a.coords, a.node_coords, x, a) for a, x in zip(self.axes, theta[2:])]
-        nu_nodes = np.log(0.5 - self.grid.nu)[::-1]
-        nu = 0.5 - np.exp(_cell_centre(lambda v: np.log(0.5 - v), nu_nodes, theta[1], None))
+        values = [a.value(_cell_centre(a.node_coords, float(a.coords(x)))) for a, x in zip(self.axes, theta[2:])]
+        nu = 0.5 - np.exp(_cell_centre(np.log(0.5 - self.grid.nu)[::-1], float(np.log(0.5 - theta[1]))))
         cubic = self.unit_force(h, nu, values)
         quadratic = self.unit_force(h, nu, values, degree=2)
         ok = np.abs(cubic) > 0
@@ -295,20 +294,14 @@ class EffectSurface:
         return J
 
 
-def _cell_centre(coords, nodes, value: float, axis):
-    """The centre, in the interpolation coordinate ``coords``, of the cell of ``nodes`` (increasing
-    coordinates) that holds ``value``, as a value of the parameter (``axis``: an EffectAxis, or None
-    for the coordinate itself); ``value`` itself where it is at a node."""
+def _cell_centre(nodes, x: float) -> float:
+    """The centre of the cell of ``nodes`` (increasing coordinates) that holds the coordinate ``x``;
+    ``x`` itself where it is at a node."""
     nodes = np.asarray(nodes, dtype=float)
-    x = float(coords(value))
-    span = nodes[-1] - nodes[0]
-    if np.min(np.abs(nodes - x)) <= 1e-9 * max(span, 1e-300):
-        return x if axis is None else float(value)
+    if np.min(np.abs(nodes - x)) <= 1e-9 * (nodes[-1] - nodes[0]):
+        return float(x)
     i = int(np.clip(np.searchsorted(nodes, x) - 1, 0, nodes.size - 2))
-    centre = 0.5 * (nodes[i] + nodes[i + 1])
-    if axis is None:
-        return centre
-    return float(np.exp(centre) - axis.shift) if axis.coordinate == "log" else float(centre)
+    return float(0.5 * (nodes[i] + nodes[i + 1]))
 
 
 @functools.lru_cache(maxsize=256)
