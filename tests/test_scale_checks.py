@@ -264,3 +264,55 @@ def test_the_bundled_skin_curves_raise_no_scale_flag(context):
         scale = [f for f in r.flags if not f.startswith(("nu at the bound", "misfit"))]
         assert scale == [], (name, scale)
     assert np.isfinite(r.parameters["E_kPa"])
+
+
+# ------------------------------------------------------------------ the same checks before a diagnosis
+def test_diagnose_plan_and_batches_refuse_a_slip_before_any_finite_element_work(cli, tmp_path, monkeypatch):
+    """The slips ``fit`` flags stop ``diagnose``, ``plan`` and each curve of a batch in one line, before
+    a surface or a finite-element run is asked for (any such request fails this test)."""
+    from skin_indent.response_surface import ResponseSurface
+
+    def no_fe(*args, **kwargs):
+        raise AssertionError("finite-element work asked for")
+
+    monkeypatch.setattr(ResponseSurface, "build", no_fe)
+    newton = _write(tmp_path / "newton.csv", _forearm(scale=1e-3))
+    for command in ("diagnose", "plan"):
+        code, out, err = cli(command, newton, "--out", tmp_path / command) if command == "plan" else cli(command, newton)
+        assert code == 2 and err.count("\n") == 1, (command, err)
+        assert "forces in N in a column labelled mN" in err and "before any finite-element work" in err
+    code, _, err = cli("diagnose", JPK, "--radius", "18.64")  # 18.64 um meant
+    assert code == 2 and err.count("\n") == 1
+    assert "0.01864 for 18.64 um" in err and "radius in um typed as mm" in err
+    code, out, err = cli("diagnose", newton, "--out", tmp_path / "rows.tsv", "--workers", "1")
+    assert code == 3 and "1 failed" in out and "forces in N" in out
+
+
+def test_curve_scale_flags_are_the_fit_flags_of_the_same_slips():
+    from skin_indent.fitting.scale_checks import curve_scale_flags
+    from skin_indent.measurement import prepare
+
+    assert curve_scale_flags(prepare(_forearm())) == []
+    assert curve_scale_flags(prepare(load_csv(JPK))) == []
+    slip = curve_scale_flags(prepare(_forearm(scale=1e-3)))
+    assert len(slip) == 1 and slip[0].startswith("E = ") and "forces in N" in slip[0]
+    radius = curve_scale_flags(prepare(load_csv(JPK), radius_mm=18.64))
+    assert [f[:6] for f in radius] == ["h/R = ", "E = 4."]
+
+
+def test_diagnose_holds_nu_at_afm_scale_unless_freed(monkeypatch):
+    """As ``fit``: nu held at AFM scale (at 0.49, the surfaces' nearly incompressible end), free on
+    request and at skin scale; a note says so and by how much E at nu = 0.5 differs."""
+    from skin_indent.diagnosis.workflow import AFM_NU, scale_conventions
+    from skin_indent.measurement import prepare
+
+    afm, skin = prepare(load_csv(JPK)), prepare(_forearm())
+    fixed, notes = scale_conventions([afm], None, None)
+    assert fixed == {"nu": AFM_NU} and len(notes) == 1 and "1.3 % lower" in notes[0] and "--free nu" in notes[0]
+    assert scale_conventions([afm], None, None, free=("nu",)) == (None, [])
+    assert scale_conventions([afm], {"nu": 0.45}, None) == ({"nu": 0.45}, [])
+    assert scale_conventions([afm], None, {"nu": (0.45, 0.02)}) == (None, [])
+    assert scale_conventions([skin], None, None) == (None, [])
+    assert scale_conventions([afm, skin], None, None) == (None, [])  # a sample measured at both scales: free
+    with pytest.raises(ValueError, match="both held"):
+        scale_conventions([afm], {"nu": 0.45}, None, free=("nu",))

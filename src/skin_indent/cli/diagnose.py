@@ -48,6 +48,10 @@ def add_diagnose(sub):
                    help="a Gaussian prior from an independent measurement (repeatable), e.g. --prior "
                         "thickness_mm=1.2:0.1 (a dermis thickness from ultrasound): in every model that has it; the "
                         "report says whether the data or the prior determined it")
+    p.add_argument("--free", action="append", default=[], choices=("nu",),
+                   help="fit a parameter the scale's convention holds: --free nu fits nu at AFM scale (sphere "
+                        "radius < 0.5 mm), where every model holds it at 0.49, the nearly incompressible end of "
+                        "the surfaces, as the field holds nu = 0.5")
     p.add_argument("--model", default="neo-hooke",
                    help="base model: neo-hooke, optionally with effects, e.g. neo-hooke+layer (same as --add)")
     p.add_argument("--candidates", default=",".join(EFFECTS),
@@ -121,6 +125,10 @@ def _settings(args) -> dict:
            "add": [*model[1:], *args.add], "noise_mN": noise, "segments": segments,
            "max_rungs": args.max_rungs, "in_loop": not args.surfaces_only, "mesh": args.mesh}
     fixed, priors = parse_fix(args.fix, any_name=True), parse_priors(args.prior)
+    if "nu" in args.free and "nu" in fixed:
+        raise CLIError(f"--free nu and --fix nu={fixed['nu']:g}: give one of them")
+    if args.free:
+        out["free"] = tuple(args.free)
     if fixed:
         out["fixed"] = fixed
     if priors:

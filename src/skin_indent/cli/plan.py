@@ -75,6 +75,8 @@ def add_plan(sub):
                       help="hold a parameter you know (as diagnose --fix)")
     diag.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
                       help="a Gaussian prior from an independent measurement (as diagnose --prior)")
+    diag.add_argument("--free", action="append", default=[], choices=("nu",),
+                      help="fit nu at AFM scale (sphere radius < 0.5 mm), where it is held at 0.49 (as diagnose)")
     diag.add_argument("--mesh", choices=("coarse", "medium", "fine"), default="coarse",
                       help="mesh of the finite-element runs (default coarse)")
     diag.add_argument("--workers", type=int, default=None, help="local processes")
@@ -100,6 +102,8 @@ def _run_plan(args) -> int:
         positive(v, "--noise", "mN")
     radius = per_file(args.radius, n, "--radius")
     fixed, priors = parse_fix(args.fix, any_name=True), parse_priors(args.prior)
+    if "nu" in args.free and "nu" in fixed:
+        raise CLIError(f"--free nu and --fix nu={fixed['nu']:g}: give one of them")
     if args.max_rungs < 0:
         raise CLIError(f"--max-rungs must be >= 0, got {args.max_rungs}")
     if args.scheduler is not None and args.workers is not None:
@@ -111,7 +115,7 @@ def _run_plan(args) -> int:
     result = plan(measurements[0] if len(measurements) == 1 else measurements, radii=radii,
                   max_depth_mm=args.max_depth, hold_s=args.hold, speeds_mm_per_s=speeds, candidates=candidates,
                   noise_mN=noise, max_rungs=args.max_rungs, in_loop=not args.surfaces_only, context=context,
-                  mesh=args.mesh, **({"fixed": fixed} if fixed else {}), **({"priors": priors} if priors else {}))
+                  mesh=args.mesh, **({"fixed": fixed} if fixed else {}), **({"free": tuple(args.free)} if args.free else {}), **({"priors": priors} if priors else {}))
     prov = command_provenance(args, list(args.data), leave_out=("data", "out"))
     written = write_plan(result, args.out, provenance=prov)
     files = [str(p) for p in written["curves"]] + ([str(written["figure"])] if written["figure"] else [])

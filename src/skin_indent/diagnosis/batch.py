@@ -250,7 +250,7 @@ def diagnose_many(paths, *, index: int | None = None, radius_mm: float | None = 
                   noise_mN: float | None = None, segments=SEGMENTS, max_rungs: int = 3, in_loop: bool = True,
                   mesh: str = "coarse", context=None, progress: bool | None = None, keep_diagnoses: bool = False,
                   on_row=None, recursive: bool = False, command=None, fixed: dict | None = None,
-                  priors: dict | None = None) -> DiagnosisBatch:
+                  priors: dict | None = None, free=()) -> DiagnosisBatch:
     """Diagnose every curve of every file, in parallel; one :class:`DiagnosisRow` per curve.
 
     Parameters
@@ -288,6 +288,9 @@ def diagnose_many(paths, *, index: int | None = None, radius_mm: float | None = 
     fixed, priors : dict, optional
         What is known of every sample, held or weighed in every model that has the parameter
         (as :func:`~skin_indent.diagnosis.diagnose`).
+    free : sequence of str
+        ``("nu",)``: fit nu at AFM scale, where every curve's models hold it otherwise (as
+        :func:`~skin_indent.diagnosis.diagnose`).
     command : sequence of str, optional
         The command line to record; default: the API call (``skin_indent.diagnose_many``).
 
@@ -321,6 +324,10 @@ def diagnose_many(paths, *, index: int | None = None, radius_mm: float | None = 
         settings["fixed"] = dict(fixed)
     if priors:
         settings["priors"] = {k: tuple(v) for k, v in priors.items()}
+    if free:
+        if set(free) - {"nu"}:
+            raise ValueError(f"free takes nu, got {', '.join(free)}")
+        settings["free"] = tuple(free)
     rows: list = []  # DiagnosisRow, or (location keywords, prepared curve) waiting for its diagnosis
     for where, m, error in read_curves(files, index=index, radius_mm=radius_mm):
         if error is None:

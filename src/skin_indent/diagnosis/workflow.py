@@ -62,7 +62,9 @@ from ..measurement import SEGMENTS, CurveSet
 from ..measurement.scale import Name, Quantity, UnitText
 from .evidence import suggest_measurement
 from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_sample, sample_noise
-from ..fitting.scale_checks import contact_points, points_flags
+from ..fitting.scale_checks import check_scale, contact_points, points_flags
+from ..fitting.surfaces import EFFECT_NU
+from ..measurement.scale import afm_scale
 from ..fitting.surfaces import interpolation_flags
 from ..fitting.multistart import Fitter
 from ..fitting.rung import Rung
@@ -78,8 +80,9 @@ from ..runtime.provenance import records_call
 
 log = logging.getLogger(__name__)
 
-__all__ = ["ALLOWANCE", "BEAM", "CLOSE", "FROM_FE", "FROM_FIT", "NOT_FITTED", "RIVAL", "STRONG", "Diagnosis", "Scores",
-           "Step", "check_known", "determine", "diagnose", "explained", "settled"]
+__all__ = ["AFM_NU", "ALLOWANCE", "BEAM", "CLOSE", "FROM_FE", "FROM_FIT", "NOT_FITTED", "RIVAL", "STRONG", "Diagnosis", "Scores",
+           "Step", "check_known", "determine", "diagnose", "explained", "scale_conventions",
+           "settled"]
 
 
 def _contains(big, small) -> bool:
@@ -215,8 +218,8 @@ def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
     """
     std = dict(rung.std)
     source = {k: FROM_FIT for k in std}
-    loose = [k for k, v in rung.parameters.items()
-             if math.isfinite(v) and not std.get(k, math.nan) <= DETERMINED * abs(v)]
+    loose = [k for k, v in rung.parameters.items()  # a value held (fitter.fixed) is known, not determined
+             if k not in fitter.fixed and math.isfinite(v) and not std.get(k, math.nan) <= DETERMINED * abs(v)]
     predictions = []
     if loose and fitter.in_loop and rung.bound_model is not None and rung.x is not None:
         log.info("what the curve determines of %s: %s loose; finite-element sensitivities of %d measurements",
@@ -244,7 +247,7 @@ def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
               leave_out=("context", "cache_dir", "workers", "client", "scheduler", "progress"))
 def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=None,
              segments=SEGMENTS, max_rungs: int = 3, in_loop: bool = True, context=None, mesh: str = "coarse",
-             fixed: dict | None = None, priors: dict | None = None, **build) -> Diagnosis:
+             fixed: dict | None = None, priors: dict | None = None, free=(), **build) -> Diagnosis:
     """Compare the model with a measured curve, name the effects it misses and add them.
 
     Parameters
@@ -301,10 +304,20 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         from ultrasound: ``{"thickness_mm": (1.2, 0.1)}``): a Gaussian prior in every model that
         has the parameter (:func:`~skin_indent.fitting.fit_model`); each rung's ``priors`` says
         whether the data or the prior determined it, and whether they agree.
+    free : sequence of str
+        Parameters fitted that the scale's convention holds: ``("nu",)`` fits nu at AFM scale, where
+        every model otherwise holds it at :data:`AFM_NU` (:func:`scale_conventions`).
 
     Returns
     -------
     Diagnosis
+
+    Raises
+    ------
+    MeasurementError
+        A curve whose scale cannot be right (forces in N labelled mN, a radius in um typed as mm:
+        :func:`~skin_indent.fitting.scale_checks.check_scale`, the checks ``fit`` makes), before any
+        finite-element work.
     """
     context = context_of(context, **build)
     candidates = tuple(EFFECTS) if candidates is None else tuple(candidates)
@@ -326,6 +339,8 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         data = prepare_curve(measurement, radius_mm=radius_mm, segments=segments)
         sigma, source = curve_noise(data, noise_mN)
         curves, sigmas, sources = [data], [sigma], [source]
+    check_scale(data)
+    fixed, notes = scale_conventions(curves, fixed, priors, free)
     check_known(fixed, priors, (*candidates, *add), len(curves))
     fitter = Fitter(curves, sigmas, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
@@ -356,7 +371,6 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
             key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
             branches.append((key, branch_steps))
             examined += branch_steps
-    notes = []
     alternatives = []
     if branches:
         finals = sorted(((scores(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
@@ -427,6 +441,33 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
                      explained=is_explained, std_source=std_source, not_determined=not_determined,
                      untried=untried, predictions=predictions, candidates=candidates, curves=list(curves),
                      noises_mN=list(sigmas), noise_sources=list(sources))
+
+
+#: Poisson's ratio every model of a diagnosis holds at AFM scale: the nearly incompressible end that
+#: all its surfaces cover (the field holds nu = 0.5; the finite-element law needs nu < 0.5)
+AFM_NU = max(EFFECT_NU)
+
+
+def scale_conventions(curves, fixed, priors, free=()) -> tuple[dict | None, list[str]]:
+    """What the scale of ``curves`` holds, as ``fit`` holds it: ``(fixed, notes)``.
+
+    At AFM scale (every sphere below 0.5 mm: :func:`~skin_indent.measurement.scale.afm_scale`) the
+    field holds nu = 0.5; a diagnosis holds it at :data:`AFM_NU` = 0.49, the nearly incompressible end
+    of its surfaces, unless nu is held or given a prior already or ``free`` names it. A curve determines
+    E* = E / (1 - nu^2) there, so E at nu = 0.5 is 0.75 / (1 - 0.49^2) = 0.987 of the E reported.
+    """
+    free = tuple(free or ())
+    if set(free) - {"nu"}:
+        raise ValueError(f"free takes nu (held at {AFM_NU:g} by default at AFM scale), got {', '.join(free)}")
+    if "nu" in free and "nu" in (fixed or {}):
+        raise ValueError(f"nu is both held (at {fixed['nu']:g}) and freed: give one of them")
+    if ("nu" in free or "nu" in (fixed or {}) or "nu" in (priors or {})
+            or not all(afm_scale(c.radius_mm) for c in curves)):
+        return fixed, []
+    note = (f"nu = {AFM_NU:g} held at AFM scale (a sphere of AFM or cell size), the nearly incompressible end of the "
+            "surfaces, as the field holds nu = 0.5: E at nu = 0.5 is "
+            f"{100 * (1 - 0.75 / (1 - AFM_NU**2)):.1f} % lower; --free nu fits it")
+    return {**(fixed or {}), "nu": AFM_NU}, [note]
 
 
 def check_known(fixed, priors, effects, n_curves: int) -> None:
