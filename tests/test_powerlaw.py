@@ -149,3 +149,33 @@ def test_an_elastic_curve_is_not_named_viscoelastic(context):
     dg = diagnose(m, candidates=("viscoelastic", "powerlaw"), fixed={"nu": NU}, in_loop=False, context=context)
     print(dg.report())
     assert dg.verdict == "none" and not dg.missing, dg.report()
+
+
+def _ramp(force_of, speed, *, depth=2e-4, noise=0.01, seed=0):
+    """An approach only (0.1 um above the surface to ``depth``) at ``speed``."""
+    lead = 1e-4
+    t = np.linspace(0.0, (lead + depth) / speed, 200)
+    d = speed * t
+    F = force_of(t - lead / speed, d - lead)
+    return d, F + np.random.default_rng(seed).normal(0.0, noise * F.max(), t.size), t
+
+
+def test_two_speeds_of_one_sample_name_the_power_law_and_an_elastic_pair_nothing(context):
+    """Loading ramps at 1 and 10 um/s, no retract (one ramp alone cannot show relaxation): a power-law
+    sample (beta = 0.25) is named powerlaw with its exponent within 2 sd; an elastic one nothing."""
+    from skin_indent.diagnosis import diagnose
+
+    beta, speeds = 0.25, (1e-3, 1e-2)
+    curves = [_measurement(*_ramp(lambda tt, h, v=v: ting_power_law_force(tt, v, E_CELL, NU, R_AFM, beta), v,
+                                  seed=k), f"power law at {v * 1e3:g} um/s") for k, v in enumerate(speeds)]
+    dg = diagnose(curves, candidates=("viscoelastic", "powerlaw"), fixed={"nu": NU}, in_loop=False,
+                  context=context)
+    print(dg.report())
+    assert dg.verdict == "powerlaw", dg.report()
+    assert abs(dg.current.parameters["beta"] - beta) < 2 * dg.current.std["beta"]
+    elastic = [_measurement(*_ramp(lambda tt, h: hertz_force(h, E_CELL, NU, R_AFM), v, seed=5 + k),
+                            f"elastic at {v * 1e3:g} um/s") for k, v in enumerate(speeds)]
+    dg = diagnose(elastic, candidates=("viscoelastic", "powerlaw"), fixed={"nu": NU}, in_loop=False,
+                  context=context)
+    print(dg.report())
+    assert dg.verdict == "none" and not dg.missing, dg.report()
