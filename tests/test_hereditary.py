@@ -18,11 +18,12 @@ def _ramp(speed=0.02, depth=0.6, n=301, unload=False):
     return t, h
 
 
-@pytest.mark.parametrize("g, tau", [(0.4, 5.0), (0.7, 0.5), (0.2, 100.0)])
-def test_constant_speed_ramp_equals_the_closed_form(g, tau):
+@pytest.mark.parametrize("prony", [((0.4, 5.0),), ((0.7, 0.5),), ((0.2, 100.0),),
+                                   ((0.3, 0.2), (0.25, 3.0), (0.2, 60.0))])  # a series of three terms
+def test_constant_speed_ramp_equals_the_closed_form(prony):
     t, h = _ramp()
-    F = hereditary_force(t, h, hertz_force(h, E, NU, R), ((g, tau),))
-    exact = ting_ramp_force(t, 0.02, E, NU, R, ((g, tau),))
+    F = hereditary_force(t, h, hertz_force(h, E, NU, R), prony)
+    exact = ting_ramp_force(t, 0.02, E, NU, R, prony)
     assert np.max(np.abs(F - exact)) < 2e-4 * exact.max()
 
 

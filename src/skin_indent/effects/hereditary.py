@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CUT_S", "PowerLawKernel", "relaxation_weights", "hereditary_force"]
+__all__ = ["CUT_S", "PowerLawKernel", "relaxation_weights", "hereditary_force", "start_time"]
 
 #: cut of the power-law kernel at short times, s (its instantaneous modulus is finite)
 CUT_S = 1e-5
@@ -111,6 +111,24 @@ def _check_prony(prony) -> tuple[np.ndarray, np.ndarray]:
     return g, tau
 
 
+def _step_means(prony, lag_start, lag_end, dt) -> np.ndarray:
+    """Mean of psi over lags [lag_end, lag_start] (steps of length ``dt``; psi(lag_start) where dt = 0)."""
+    lag_end, lag_start = np.maximum(lag_end, 0.0), np.maximum(lag_start, 0.0)
+    if isinstance(prony, PowerLawKernel):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(dt > 0, (prony.integral(lag_start) - prony.integral(lag_end)) / dt,
+                            prony.value(lag_start))
+    g, tau = _check_prony(prony)
+    W = np.full(np.broadcast(lag_start, lag_end, dt).shape, 1.0 - g.sum())
+    for gi, ti in zip(g, tau):
+        e1 = np.exp(-lag_end / ti)
+        e0 = np.exp(-lag_start / ti)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mean = np.where(dt > 0, ti * (e1 - e0) / dt, e0)
+        W += gi * mean
+    return W
+
+
 def relaxation_weights(time_s, prony) -> np.ndarray:
     r"""W[n, j] = mean of psi(t_n - s) over step j (s in [t_j, t_{j+1}]), zero for j >= n.
 
@@ -132,25 +150,18 @@ def relaxation_weights(time_s, prony) -> np.ndarray:
     dt = np.diff(t)
     if np.any(dt < 0):
         raise ValueError("time_s must not decrease")
-    n = t.size
     lag_end = t[:, None] - t[None, 1:]      # t_n - t_{j+1}
     lag_start = t[:, None] - t[None, :-1]   # t_n - t_j
-    if isinstance(prony, PowerLawKernel):
-        k = prony
-        lag_end, lag_start = np.maximum(lag_end, 0.0), np.maximum(lag_start, 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            W = np.where(dt[None, :] > 0, (k.integral(lag_start) - k.integral(lag_end)) / dt[None, :],
-                         k.value(lag_start))
-        return np.tril(W, -1)
-    g, tau = _check_prony(prony)
-    W = np.full((n, n - 1), 1.0 - g.sum())
-    for gi, ti in zip(g, tau):
-        e1 = np.exp(-np.maximum(lag_end, 0.0) / ti)
-        e0 = np.exp(-np.maximum(lag_start, 0.0) / ti)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            mean = np.where(dt[None, :] > 0, ti * (e1 - e0) / dt[None, :], e0)
-        W += gi * mean
-    return np.tril(W, -1)  # step j contributes to t_n only when j < n
+    return np.tril(_step_means(prony, lag_start, lag_end, dt[None, :]), -1)  # step j acts on t_n only when j < n
+
+
+def start_time(time_s) -> float:
+    """When a history that begins in contact started from depth 0: one time step (the first) before
+    the first time, not before 0 s when the times are >= 0 (the forward model's convention,
+    :meth:`~skin_indent.mechanics.solver.IndentationProblem.solve`)."""
+    t = np.asarray(time_s, dtype=float)
+    dt0 = float(t[1] - t[0]) if t.size > 1 else 0.0
+    return float(t[0] - dt0) if t[0] < 0 else max(float(t[0] - dt0), 0.0)
 
 
 def hereditary_force(time_s, depth_mm, elastic_force_mN, prony, *, weights=None) -> np.ndarray:
@@ -173,17 +184,32 @@ def hereditary_force(time_s, depth_mm, elastic_force_mN, prony, *, weights=None)
     -------
     ndarray, shape (n,)
         Force, mN; 0 once the contact is lost.
+
+    Notes
+    -----
+    A history that begins in contact (``elastic_force_mN[0]`` not 0) is taken to have begun at
+    depth 0 at :func:`start_time` (one time step before), with the elastic force linear in time
+    from 0, as the forward model takes it; with no time before it (the first time is 0 s) the
+    first state is a step.
     """
+    t = np.asarray(time_s, dtype=float)
     h = np.asarray(depth_mm, dtype=float)
     fe = np.asarray(elastic_force_mN, dtype=float)
-    W = relaxation_weights(time_s, prony) if weights is None else weights
+    W = relaxation_weights(t, prony) if weights is None else weights
+    t_start = start_time(t)
+    if fe[0] != 0 and t_start < t[0]:
+        # a history that begins in contact: the elastic force grew from 0 at t_start (as in the forward model)
+        first = _step_means(prony, t - t_start, t - t[0], t[0] - t_start)
+        Wx = np.zeros((t.size + 1, t.size))
+        Wx[1:, 1:], Wx[1:, 0] = W, first
+        return _force(Wx, np.r_[0.0, h], np.r_[0.0, fe], np.zeros(t.size + 1))[1:]
+    initial = fe[0] * _step_means(prony, t - t[0], t - t[0], 0.0)  # a step at t_0 (or nothing)
+    return _force(W, h, fe, initial)
+
+
+def _force(W, h, fe, initial) -> np.ndarray:
+    """The force of the weights ``W`` (:func:`relaxation_weights`), depths and elastic forces."""
     dh, dfe = np.diff(h), np.diff(fe)
-    lag = np.asarray(time_s, dtype=float) - float(np.asarray(time_s)[0])
-    if isinstance(prony, PowerLawKernel):
-        initial = fe[0] * prony.value(lag)  # a first step at t_0
-    else:
-        g, tau = _check_prony(prony)
-        initial = fe[0] * ((1.0 - g.sum()) + np.exp(-lag[:, None] / tau[None, :]) @ g)
     force = initial + W @ dfe  # growing contact everywhere
     # receding contact: the contact radius of t_n was last seen at t_1 < t_n (all such n at once)
     rec = np.flatnonzero(np.r_[False, dh < 0])
