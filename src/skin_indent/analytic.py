@@ -99,6 +99,57 @@ def ting_ramp_force(time_s, speed_mm_per_s, E_kPa, nu, radius_mm, prony):
     return 2.0 * np.sqrt(radius_mm) * speed_mm_per_s**1.5 * E_kPa / (1.0 - nu**2) * total
 
 
+def ting_power_law_force(time_s, speed_mm_per_s, E_kPa, nu, radius_mm, beta, *, t0_s=1.0, peak_s=None):
+    r"""Force (mN) of a power-law viscoelastic half-space under a sphere, loaded and unloaded at constant speed.
+
+    Lee-Radok / Ting solution at small strain for the relaxation modulus
+    :math:`E(t) = E (t/t_0)^{-\beta}` and constant nu, depth h = v t up to ``peak_s``, then
+    h = v (2 t_m - t). Loading:
+
+    .. math::
+
+        F(t) = \frac{4\sqrt R}{3(1-\nu^2)} \int_0^t E(t-s) \frac{d h^{3/2}}{ds} ds
+             = \frac{4\sqrt R}{3(1-\nu^2)} E t_0^\beta v^{3/2} \frac32 B(\tfrac32, 1-\beta)\, t^{3/2-\beta}.
+
+    Unloading (Ting 1966): the contact radius of time t is that of the earlier time t_1 with
+    :math:`\int_{t_1}^t E(t-s) \dot h(s) ds = 0`, here :math:`t - t_1 = 2^{1/(1-\beta)} (t - t_m)`,
+    and F(t) is the loading integral up to t_1, an incomplete Beta function:
+    :math:`F(t) = F_\mathrm{load}(t)\, I_{t_1/t}(\tfrac32, 1-\beta)`; the contact is lost (F = 0)
+    once :math:`t_1 \le 0`.
+
+    Parameters
+    ----------
+    time_s : array_like
+        Time since first contact, s.
+    speed_mm_per_s : float
+        Speed v, mm/s.
+    E_kPa : float
+        Relaxation modulus at ``t0_s``, kPa.
+    nu : float
+        Poisson's ratio.
+    radius_mm : float
+        Sphere radius R, mm.
+    beta : float
+        Exponent, in [0, 1).
+    t0_s : float
+        Reference time, s.
+    peak_s : float, optional
+        Time of the deepest point (None: loading only).
+    """
+    from scipy.special import beta as beta_fn
+    from scipy.special import betainc
+
+    t = np.maximum(np.asarray(time_s, dtype=float), 0.0)
+    load = (4.0 * np.sqrt(radius_mm) / (3.0 * (1.0 - nu**2)) * E_kPa * t0_s**beta * speed_mm_per_s**1.5
+            * 1.5 * beta_fn(1.5, 1.0 - beta) * t ** (1.5 - beta))
+    if peak_s is None:
+        return load
+    t1 = t - 2.0 ** (1.0 / (1.0 - beta)) * np.maximum(t - peak_s, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.where(t1 > 0, betainc(1.5, 1.0 - beta, np.clip(t1 / np.where(t > 0, t, 1.0), 0.0, 1.0)), 0.0)
+    return np.where(t > peak_s, load * frac, load)
+
+
 def dimitriadis_bonded_force(depth_mm, E_kPa, nu, radius_mm, thickness_mm):
     r"""Sphere on a thin elastic layer bonded to a rigid base (Dimitriadis et al. 2002).
 

@@ -58,6 +58,7 @@ import math
 import re
 
 from ..effects import BASE_PARAMETERS, EFFECTS, WEIGHED, effect, instances, numbered
+from ..effects.repeat import addable
 from ..measurement import SEGMENTS, CurveSet
 from ..measurement.scale import Name, Quantity, UnitText
 from .evidence import suggest_measurement
@@ -102,7 +103,7 @@ def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
     tried, weighed, wanted = [], [], []
     for name in candidates:
         e = effect(name)
-        if name in key and not e.repeatable:
+        if not addable(key, name):
             continue
         why = fitter.visible(e)
         if why is not None:
@@ -163,7 +164,7 @@ def _fittable(fitter: Fitter, key: tuple, candidates) -> list[str]:
     out = []
     for name in candidates:
         e = effect(name)
-        if e.stage != WEIGHED and (name not in key or e.repeatable) and fitter.visible(e) is None:
+        if e.stage != WEIGHED and addable(key, name) and fitter.visible(e) is None:
             out.append(name)
     return out
 

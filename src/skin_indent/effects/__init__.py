@@ -15,6 +15,9 @@ and nu. The vocabulary (:data:`EFFECTS`, in this order):
     Coulomb friction between sphere and skin (stick and slip): ``mu``.
 ``adhesion`` (:mod:`.adhesion`)
     work of adhesion ``w_mJ_per_m2`` (pull-off on unloading).
+``powerlaw`` (:mod:`.powerlaw`)
+    power-law relaxation E(t) = E (t / 1 s)^-beta of cells and tissues: ``beta`` (the other
+    relaxation kernel: a model has ``viscoelastic`` or ``powerlaw``).
 ``offset`` (:mod:`.offset`)
     a shift of the contact point: ``offset_mm`` (a nuisance parameter of fits).
 
@@ -34,6 +37,7 @@ from .friction import Friction
 from .layer import Layer
 from .model import Model
 from .offset import Offset
+from .powerlaw import PowerLaw
 from .registry import EFFECTS, effect, register, unregister
 from .repeat import Repeat, instances, numbered
 from .stiffening import Stiffening
@@ -42,7 +46,7 @@ from .viscoelastic import Viscoelastic
 #: the contact point as a fit parameter: every fit of a curve recorded from before contact has it
 CONTACT_POINT = Offset()
 
-for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), CONTACT_POINT):
+for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), CONTACT_POINT, PowerLaw()):
     register(_e, replace=True)
 del _e
 

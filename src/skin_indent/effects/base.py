@@ -130,6 +130,9 @@ class ForwardSpec:
         Keywords of :class:`~skin_indent.mechanics.contact.ContactLaw`.
     offset_mm : float
         Recorded depth at which contact begins.
+    instantaneous : float
+        The instantaneous modulus of every material relative to its modulus (1; a power-law
+        relaxation, whose E_kPa is the modulus at 1 s, sets it to psi(0) of its Prony series).
     """
 
     E_kPa: float
@@ -140,12 +143,13 @@ class ForwardSpec:
     below: float = 1.0
     contact: dict = field(default_factory=dict)
     offset_mm: float = 0.0
+    instantaneous: float = 1.0
 
     def law(self, relative_modulus: float = 1.0):
         """The constitutive law of a material of modulus ``relative_modulus * E_kPa``."""
         from ..mechanics.materials import NeoHooke, NeoHookeStiffening, PronyTerm, Viscoelastic
 
-        E = self.E_kPa * relative_modulus
+        E = self.E_kPa * relative_modulus * self.instantaneous
         base = (NeoHookeStiffening(E, self.nu, self.C20_over_E * E) if self.C20_over_E > 0
                 else NeoHooke(E, self.nu))
         if self.prony:
@@ -293,6 +297,10 @@ class Effect:
         one sample are fitted together (:class:`~skin_indent.models.JointModel`), every curve has
         its own (the contact point of each curve, ``offset_mm[2]``), while the material's
         parameters are shared.
+    kind : str
+        Effects of one kind are alternative descriptions of one mechanism (``relaxation``: the
+        kernels ``viscoelastic`` and ``powerlaw``): a model has at most one of a kind, and the
+        diagnosis ranks them against each other instead of stacking them. "": none.
     """
 
     name: str = ""
@@ -303,6 +311,7 @@ class Effect:
     linear_in_E: bool = True
     repeatable: bool = False
     per_curve: bool = False
+    kind: str = ""
 
     def __repr__(self) -> str:
         return f"<effect {self.name}: {self.description}>"

@@ -32,15 +32,73 @@ the noisy curve is tested in ``tests/test_diagnose.py``). The small-strain limit
 (Ting's closed form for a ramp, fast and slow loading, holds, unloading) are tested
 in ``tests/test_hereditary.py``.
 
-The depth history is taken as piecewise linear in time, and the Prony kernels are
-integrated exactly over each step.
+The depth history is taken as piecewise linear in time, and the kernels are integrated
+exactly over each step: a Prony series, or the power law of cells and tissues
+(:class:`PowerLawKernel`, Fabry et al. 2001; Efremov et al. 2017),
+
+.. math::
+
+    \psi(t) = \Big(\frac{t + t_c}{t_0}\Big)^{-\beta}, \qquad 0 \le \beta < 1,
+
+with E the modulus at :math:`t_0` = 1 s (the cell-rheology convention E(t) = E_0 (t/t_0)^{-\beta})
+and a cut :math:`t_c` = :data:`CUT_S` = 10 us that makes the instantaneous modulus finite
+(:math:`E(0) = E_0 (t_c/t_0)^{-\beta}`, 32 E_0 at beta = 0.3). The pure power law is integrable
+(beta < 1); the cut lowers the force at time t by a fraction of about :math:`(t_c/t)^{1-\beta}`
+(the part of the kernel's integral it removes): 4e-5 at beta = 0.3 after 30 s, 5e-4 after 0.5 s,
+2.5e-3 at beta = 0.6 after 30 s (tested against Ting's closed form with the Beta function,
+:func:`~skin_indent.analytic.ting_power_law_force`, in ``tests/test_hereditary.py``).
+The finite-element model relaxes with a Prony series fitted to the
+same kernel (:func:`~skin_indent.mechanics.materials.viscoelastic.power_law_prony`).
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["relaxation_weights", "hereditary_force"]
+__all__ = ["CUT_S", "PowerLawKernel", "relaxation_weights", "hereditary_force", "start_time"]
+
+#: cut of the power-law kernel at short times, s (its instantaneous modulus is finite)
+CUT_S = 1e-5
+
+
+@dataclass(frozen=True)
+class PowerLawKernel:
+    r"""Power-law relaxation :math:`\psi(t) = ((t + t_c)/t_0)^{-\beta}` (module docstring).
+
+    Parameters
+    ----------
+    beta : float
+        Exponent, in [0, 1) (0: elastic).
+    t0_s : float
+        Time at which the relaxation modulus is E, s (default 1 s).
+    cut_s : float
+        Cut at short times, s (> 0; default :data:`CUT_S`).
+    """
+
+    beta: float
+    t0_s: float = 1.0
+    cut_s: float = CUT_S
+
+    def __post_init__(self):
+        if not (math.isfinite(self.beta) and 0.0 <= self.beta < 1.0):
+            raise ValueError(f"the power-law exponent beta must lie in [0, 1), got {self.beta}")
+        for name in ("t0_s", "cut_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"the power-law kernel's {name} must be a finite time > 0 s, got {v}")
+
+    def value(self, lag_s) -> np.ndarray:
+        """psi at lags ``lag_s`` >= 0 (s)."""
+        return ((np.asarray(lag_s, dtype=float) + self.cut_s) / self.t0_s) ** -self.beta
+
+    def integral(self, lag_s) -> np.ndarray:
+        """The integral of psi from 0 to ``lag_s`` (s)."""
+        a = 1.0 - self.beta
+        lag = np.asarray(lag_s, dtype=float)
+        return self.t0_s**self.beta * ((lag + self.cut_s) ** a - self.cut_s**a) / a
 
 
 def _check_prony(prony) -> tuple[np.ndarray, np.ndarray]:
@@ -53,6 +111,24 @@ def _check_prony(prony) -> tuple[np.ndarray, np.ndarray]:
     return g, tau
 
 
+def _step_means(prony, lag_start, lag_end, dt) -> np.ndarray:
+    """Mean of psi over lags [lag_end, lag_start] (steps of length ``dt``; psi(lag_start) where dt = 0)."""
+    lag_end, lag_start = np.maximum(lag_end, 0.0), np.maximum(lag_start, 0.0)
+    if isinstance(prony, PowerLawKernel):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(dt > 0, (prony.integral(lag_start) - prony.integral(lag_end)) / dt,
+                            prony.value(lag_start))
+    g, tau = _check_prony(prony)
+    W = np.full(np.broadcast(lag_start, lag_end, dt).shape, 1.0 - g.sum())
+    for gi, ti in zip(g, tau):
+        e1 = np.exp(-lag_end / ti)
+        e0 = np.exp(-lag_start / ti)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mean = np.where(dt > 0, ti * (e1 - e0) / dt, e0)
+        W += gi * mean
+    return W
+
+
 def relaxation_weights(time_s, prony) -> np.ndarray:
     r"""W[n, j] = mean of psi(t_n - s) over step j (s in [t_j, t_{j+1}]), zero for j >= n.
 
@@ -60,8 +136,9 @@ def relaxation_weights(time_s, prony) -> np.ndarray:
     ----------
     time_s : array_like, shape (n,)
         Non-decreasing times, s.
-    prony : sequence of (g, tau_s)
-        Prony terms (relative modulus, relaxation time in s).
+    prony : sequence of (g, tau_s), or PowerLawKernel
+        The relaxation function: Prony terms (relative modulus, relaxation time in s), or a
+        kernel with ``value(lag)`` and ``integral(lag)`` (:class:`PowerLawKernel`).
 
     Returns
     -------
@@ -70,21 +147,21 @@ def relaxation_weights(time_s, prony) -> np.ndarray:
         for any x piecewise linear in time.
     """
     t = np.asarray(time_s, dtype=float)
-    g, tau = _check_prony(prony)
     dt = np.diff(t)
     if np.any(dt < 0):
         raise ValueError("time_s must not decrease")
-    n = t.size
     lag_end = t[:, None] - t[None, 1:]      # t_n - t_{j+1}
     lag_start = t[:, None] - t[None, :-1]   # t_n - t_j
-    W = np.full((n, n - 1), 1.0 - g.sum())
-    for gi, ti in zip(g, tau):
-        e1 = np.exp(-np.maximum(lag_end, 0.0) / ti)
-        e0 = np.exp(-np.maximum(lag_start, 0.0) / ti)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            mean = np.where(dt[None, :] > 0, ti * (e1 - e0) / dt[None, :], e0)
-        W += gi * mean
-    return np.tril(W, -1)  # step j contributes to t_n only when j < n
+    return np.tril(_step_means(prony, lag_start, lag_end, dt[None, :]), -1)  # step j acts on t_n only when j < n
+
+
+def start_time(time_s) -> float:
+    """When a history that begins in contact started from depth 0: one time step (the first) before
+    the first time, not before 0 s when the times are >= 0 (the forward model's convention,
+    :meth:`~skin_indent.mechanics.solver.IndentationProblem.solve`)."""
+    t = np.asarray(time_s, dtype=float)
+    dt0 = float(t[1] - t[0]) if t.size > 1 else 0.0
+    return float(t[0] - dt0) if t[0] < 0 else max(float(t[0] - dt0), 0.0)
 
 
 def hereditary_force(time_s, depth_mm, elastic_force_mN, prony, *, weights=None) -> np.ndarray:
@@ -98,8 +175,8 @@ def hereditary_force(time_s, depth_mm, elastic_force_mN, prony, *, weights=None)
         Depth h(t) of the sphere, mm (h <= 0: no contact).
     elastic_force_mN : array_like, shape (n,)
         F_e(h(t)) of the instantaneous elastic material, mN (0 where h <= 0).
-    prony : sequence of (g, tau_s)
-        Prony terms.
+    prony : sequence of (g, tau_s), or PowerLawKernel
+        The relaxation function (:func:`relaxation_weights`).
     weights : ndarray, optional
         :func:`relaxation_weights` of ``time_s`` and ``prony`` (to reuse).
 
@@ -107,14 +184,32 @@ def hereditary_force(time_s, depth_mm, elastic_force_mN, prony, *, weights=None)
     -------
     ndarray, shape (n,)
         Force, mN; 0 once the contact is lost.
+
+    Notes
+    -----
+    A history that begins in contact (``elastic_force_mN[0]`` not 0) is taken to have begun at
+    depth 0 at :func:`start_time` (one time step before), with the elastic force linear in time
+    from 0, as the forward model takes it; with no time before it (the first time is 0 s) the
+    first state is a step.
     """
+    t = np.asarray(time_s, dtype=float)
     h = np.asarray(depth_mm, dtype=float)
     fe = np.asarray(elastic_force_mN, dtype=float)
-    W = relaxation_weights(time_s, prony) if weights is None else weights
+    W = relaxation_weights(t, prony) if weights is None else weights
+    t_start = start_time(t)
+    if fe[0] != 0 and t_start < t[0]:
+        # a history that begins in contact: the elastic force grew from 0 at t_start (as in the forward model)
+        first = _step_means(prony, t - t_start, t - t[0], t[0] - t_start)
+        Wx = np.zeros((t.size + 1, t.size))
+        Wx[1:, 1:], Wx[1:, 0] = W, first
+        return _force(Wx, np.r_[0.0, h], np.r_[0.0, fe], np.zeros(t.size + 1))[1:]
+    initial = fe[0] * _step_means(prony, t - t[0], t - t[0], 0.0)  # a step at t_0 (or nothing)
+    return _force(W, h, fe, initial)
+
+
+def _force(W, h, fe, initial) -> np.ndarray:
+    """The force of the weights ``W`` (:func:`relaxation_weights`), depths and elastic forces."""
     dh, dfe = np.diff(h), np.diff(fe)
-    g, tau = _check_prony(prony)
-    lag = np.asarray(time_s, dtype=float) - float(np.asarray(time_s)[0])
-    initial = fe[0] * ((1.0 - g.sum()) + np.exp(-lag[:, None] / tau[None, :]) @ g)  # a first step at t_0
     force = initial + W @ dfe  # growing contact everywhere
     # receding contact: the contact radius of t_n was last seen at t_1 < t_n (all such n at once)
     rec = np.flatnonzero(np.r_[False, dh < 0])

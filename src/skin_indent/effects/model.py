@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from .base import BASE_PARAMETERS, EffectParameter, ForwardSpec
 from .registry import effect as _effect
-from .repeat import instances
+from .repeat import check_kinds, instances
 
 
 @dataclass(frozen=True)
@@ -36,6 +36,7 @@ class Model:
         from ..mechanics.contact import SphericalIndenter
 
         names = tuple(e.name for e in instances(self.effects))
+        check_kinds(names)  # one relaxation law (viscoelastic or powerlaw)
         object.__setattr__(self, "effects", names)
         SphericalIndenter(self.radius_mm)
 

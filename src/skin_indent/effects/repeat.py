@@ -46,6 +46,7 @@ class Repeat(Effect):
         self.linear_in_E = inner.linear_in_E
         self.repeatable = True
         self.per_curve = inner.per_curve
+        self.kind = inner.kind
 
     def __repr__(self) -> str:
         return f"<effect {self.name} #{self.k}: {self.inner.description}>"
@@ -111,3 +112,24 @@ def instances(effects) -> tuple[Effect, ...]:
             raise ValueError(f"the {obj.name} effect can appear once in a model")
         out.append(obj if k == 1 else Repeat(obj, k))
     return tuple(out)
+
+
+def check_kinds(effects) -> None:
+    """One-line error for two effects of one kind in a model (:attr:`~skin_indent.effects.Effect.kind`:
+    ``viscoelastic`` and ``powerlaw`` are alternative relaxation laws)."""
+    kinds: dict[str, str] = {}
+    for e in effects:
+        obj = e if isinstance(e, Effect) else effect(e)
+        if obj.kind and kinds.setdefault(obj.kind, obj.name) != obj.name:
+            raise ValueError(f"the {kinds[obj.kind]} and {obj.name} effects are alternative {obj.kind} laws: "
+                             "a model has one")
+
+
+def addable(key, name) -> bool:
+    """Whether the effect ``name`` can be added on top of the effects ``key`` (a repeatable effect
+    again; not a second effect of a kind the model has already, :attr:`~skin_indent.effects.Effect.kind`)."""
+    e = effect(name)
+    present = [effect(k) for k in key]
+    if any(p.name == e.name for p in present) and not e.repeatable:
+        return False
+    return not (e.kind and any(p.kind == e.kind and p.name != e.name for p in present))

@@ -30,6 +30,7 @@ with :math:`\alpha = g_\infty + \sum g_i \gamma_i` and the history
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -163,6 +164,69 @@ class Viscoelastic(Material):
         shape = (-1,) + (1,) * (state["h"].ndim - 1)
         h = e.reshape(shape) * state["h"] + (g * gamma).reshape(shape) * (S_new - state["S_e"])[None]
         return {"S_e": S_new, "h": h}
+
+
+#: times over which :func:`power_law_prony` matches the power law: from 0 to 1e4 s (about 3 hours)
+POWER_LAW_SPAN_S = 1e4
+#: Prony times per decade of :func:`power_law_prony`
+POWER_LAW_PER_DECADE = 2
+
+
+@functools.lru_cache(maxsize=64)
+def power_law_prony(beta: float, t0_s: float = 1.0, cut_s: float = 1e-5, span_s: float = POWER_LAW_SPAN_S,
+                    per_decade: int = POWER_LAW_PER_DECADE) -> tuple[float, tuple, float]:
+    r"""A Prony series of the power law :math:`\psi(t) = ((t + t_c)/t_0)^{-\beta}`, for the finite-element model.
+
+    The relaxation times are spaced ``per_decade`` per decade from a tenth of ``cut_s`` to ten
+    times ``span_s``; the moduli are the non-negative least-squares fit of the relative error on
+    [0, ``span_s``] (the collocation of Park & Schapery 1999). With the defaults (23 times from
+    1e-6 to 1e5 s, 20-21 with a modulus > 0) the series matches the kernel to 2.5e-5 at beta = 0.05,
+    5.5e-5 at 0.1, 2.4e-4 at 0.3, 5.8e-4 at 0.5 and 1.9e-3 at 0.9 (largest relative error on
+    [0, 1e4 s]); beyond ``span_s`` it levels off.
+
+    Parameters
+    ----------
+    beta : float
+        Exponent, in (0, 1).
+    t0_s, cut_s : float
+        Reference time and short-time cut of the kernel, s
+        (:class:`~skin_indent.effects.hereditary.PowerLawKernel`).
+    span_s : float
+        Longest time matched, s.
+    per_decade : int
+        Relaxation times per decade.
+
+    Returns
+    -------
+    instantaneous : float
+        psi(0) of the series: the instantaneous modulus relative to the modulus at ``t0_s``.
+    terms : tuple of PronyTerm
+        Relative to the instantaneous modulus (the convention of :class:`Viscoelastic`).
+    error : float
+        The largest relative error of the series on [0, ``span_s``].
+    """
+    from scipy.optimize import nnls
+
+    if not (math.isfinite(beta) and 0.0 < beta < 1.0):
+        raise ValueError(f"the power-law exponent beta must lie in (0, 1), got {beta}")
+    lo, hi = math.log10(cut_s) - 1.0, math.log10(span_s) + 1.0
+    tau = np.logspace(lo, hi, int(round(per_decade * (hi - lo))) + 1)
+
+    def kernel(t):
+        return ((t + cut_s) / t0_s) ** -beta
+
+    def series(t, a):
+        return a[0] + np.exp(-t[:, None] / tau[None, :]) @ a[1:]
+
+    t = np.r_[0.0, np.logspace(math.log10(cut_s) - 2.0, math.log10(span_s), 40 * tau.size)]
+    A = np.c_[np.ones_like(t), np.exp(-t[:, None] / tau[None, :])] / kernel(t)[:, None]
+    a, _ = nnls(A, np.ones_like(t))
+    a[0] = max(a[0], 1e-3 * kernel(span_s))  # a long-term modulus > 0 (sum of g < 1), off by < 1e-3 at span_s
+    check = np.r_[0.0, np.logspace(math.log10(cut_s) - 3.0, math.log10(span_s), 20000)]
+    error = float(np.max(np.abs(series(check, a) / kernel(check) - 1.0)))
+    instantaneous = float(a.sum())
+    terms = tuple(PronyTerm(float(ai / instantaneous), float(ti)) for ai, ti in zip(a[1:], tau) if ai > 0)
+    return instantaneous, terms, error
 
 
 class _ViscoelasticStep:
