@@ -13,14 +13,14 @@ from skin_indent.protocol import Protocol
 def test_vocabulary_names_and_units():
 
     # one vocabulary everywhere (API, CLI, JSON, reports), in the order of the issue
-    assert tuple(EFFECTS) == ("layer", "stiffening", "viscoelastic", "friction", "adhesion", "offset", "powerlaw")
+    assert tuple(EFFECTS) == ("layer", "stiffening", "viscoelastic", "friction", "adhesion", "offset", "viscoelastic_powerlaw")
     for e in EFFECTS.values():
         for p in e.parameters:
             assert p.unit and p.lower <= (p.off if p.off is not None else p.lower) <= p.upper
             assert p.unit == "-" or p.name.endswith(p.unit.replace("/", "_per_")) or p.name.endswith("_" + p.unit)
 
 
-@pytest.mark.parametrize("name", ["layer", "stiffening", "viscoelastic", "offset", "powerlaw"])
+@pytest.mark.parametrize("name", ["layer", "stiffening", "viscoelastic", "offset", "viscoelastic_powerlaw"])
 def test_off_values_give_back_the_base_model_exactly(name):
     model = Model((name,))
     assert model.sample({"E_kPa": 7.0, "nu": 0.45}) == NeoHooke(7.0, 0.45)

@@ -1,4 +1,4 @@
-"""Power-law relaxation (``powerlaw``): the kernel, its Prony series, the finite-element model
+"""Power-law relaxation (``viscoelastic_powerlaw``): the kernel, its Prony series, the finite-element model
 against Ting's closed form, and the diagnosis that names it (or not) from the evidence."""
 
 import math
@@ -36,20 +36,20 @@ def test_bad_exponents_are_refused_in_one_line():
     with pytest.raises(ValueError, match="beta"):
         power_law_prony(0.0)
     with pytest.raises(ValueError, match="beta = 1"):
-        Model(("powerlaw",)).check({"E_kPa": 1.0, "nu": 0.45, "beta": 1.0})
+        Model(("viscoelastic_powerlaw",)).check({"E_kPa": 1.0, "nu": 0.45, "beta": 1.0})
 
 
 def test_one_relaxation_kernel_per_model():
-    assert "powerlaw" in EFFECTS and effect("powerlaw").kind == effect("viscoelastic").kind == "relaxation"
+    assert "viscoelastic_powerlaw" in EFFECTS and effect("viscoelastic_powerlaw").kind == effect("viscoelastic").kind == "relaxation"
     with pytest.raises(ValueError, match="alternative relaxation laws"):
-        Model(("viscoelastic", "powerlaw"))
-    assert len(instances(("viscoelastic", "powerlaw"))) == 2  # a list of candidates is not a model
-    assert not addable(("viscoelastic",), "powerlaw") and not addable(("powerlaw", "layer"), "viscoelastic")
-    assert addable(("powerlaw",), "layer") and addable(("layer",), "layer") and not addable(("powerlaw",), "powerlaw")
+        Model(("viscoelastic", "viscoelastic_powerlaw"))
+    assert len(instances(("viscoelastic", "viscoelastic_powerlaw"))) == 2  # a list of candidates is not a model
+    assert not addable(("viscoelastic",), "viscoelastic_powerlaw") and not addable(("viscoelastic_powerlaw", "layer"), "viscoelastic")
+    assert addable(("viscoelastic_powerlaw",), "layer") and addable(("layer",), "layer") and not addable(("viscoelastic_powerlaw",), "viscoelastic_powerlaw")
 
 
 def test_the_forward_model_relaxes_with_the_power_law_at_the_modulus_of_one_second():
-    m = Model(("powerlaw",))
+    m = Model(("viscoelastic_powerlaw",))
     spec = m.spec({"E_kPa": 2.0, "nu": 0.45, "beta": 0.3})
     law = spec.law()
     assert isinstance(law, Viscoelastic) and len(law.prony) > 15
@@ -120,14 +120,14 @@ def test_a_power_law_curve_is_named_powerlaw_with_its_exponent(context):
     d, F, t = _approach_retract(lambda tt, h, tm: ting_power_law_force(tt, speed, E_CELL, NU, R_AFM, beta,
                                                                         peak_s=tm), speed=speed)
     m = _measurement(d, F, t, "power law")
-    dg = diagnose(m, candidates=("viscoelastic", "powerlaw"), fixed={"nu": NU}, in_loop=False, context=context)
+    dg = diagnose(m, candidates=("viscoelastic", "viscoelastic_powerlaw"), fixed={"nu": NU}, in_loop=False, context=context)
     print(dg.report())
-    assert dg.verdict == "powerlaw", dg.report()
+    assert dg.verdict == "viscoelastic_powerlaw", dg.report()
     got, sd = dg.current.parameters["beta"], dg.current.std["beta"]
     assert abs(got - beta) < 2 * sd, (got, sd)
     assert dg.current.parameters["E_kPa"] == pytest.approx(E_CELL, rel=0.05)
     rivals = {f.effects[-1]: f.bic for f in dg.ranking}
-    assert rivals["powerlaw"] < rivals["viscoelastic"]
+    assert rivals["viscoelastic_powerlaw"] < rivals["viscoelastic"]
 
 
 def test_an_elastic_curve_is_not_named_viscoelastic(context):
@@ -146,7 +146,7 @@ def test_an_elastic_curve_is_not_named_viscoelastic(context):
         return F
 
     m = _measurement(*_approach_retract(elastic, seed=3), "elastic")
-    dg = diagnose(m, candidates=("viscoelastic", "powerlaw"), fixed={"nu": NU}, in_loop=False, context=context)
+    dg = diagnose(m, candidates=("viscoelastic", "viscoelastic_powerlaw"), fixed={"nu": NU}, in_loop=False, context=context)
     print(dg.report())
     assert dg.verdict == "none" and not dg.missing, dg.report()
 
@@ -162,20 +162,20 @@ def _ramp(force_of, speed, *, depth=2e-4, noise=0.01, seed=0):
 
 def test_two_speeds_of_one_sample_name_the_power_law_and_an_elastic_pair_nothing(context):
     """Loading ramps at 1 and 10 um/s, no retract (one ramp alone cannot show relaxation): a power-law
-    sample (beta = 0.25) is named powerlaw with its exponent within 2 sd; an elastic one nothing."""
+    sample (beta = 0.25) is named viscoelastic_powerlaw with its exponent within 2 sd; an elastic one nothing."""
     from skin_indent.diagnosis import diagnose
 
     beta, speeds = 0.25, (1e-3, 1e-2)
     curves = [_measurement(*_ramp(lambda tt, h, v=v: ting_power_law_force(tt, v, E_CELL, NU, R_AFM, beta), v,
                                   seed=k), f"power law at {v * 1e3:g} um/s") for k, v in enumerate(speeds)]
-    dg = diagnose(curves, candidates=("viscoelastic", "powerlaw"), fixed={"nu": NU}, in_loop=False,
+    dg = diagnose(curves, candidates=("viscoelastic", "viscoelastic_powerlaw"), fixed={"nu": NU}, in_loop=False,
                   context=context)
     print(dg.report())
-    assert dg.verdict == "powerlaw", dg.report()
+    assert dg.verdict == "viscoelastic_powerlaw", dg.report()
     assert abs(dg.current.parameters["beta"] - beta) < 2 * dg.current.std["beta"]
     elastic = [_measurement(*_ramp(lambda tt, h: hertz_force(h, E_CELL, NU, R_AFM), v, seed=5 + k),
                             f"elastic at {v * 1e3:g} um/s") for k, v in enumerate(speeds)]
-    dg = diagnose(elastic, candidates=("viscoelastic", "powerlaw"), fixed={"nu": NU}, in_loop=False,
+    dg = diagnose(elastic, candidates=("viscoelastic", "viscoelastic_powerlaw"), fixed={"nu": NU}, in_loop=False,
                   context=context)
     print(dg.report())
     assert dg.verdict == "none" and not dg.missing, dg.report()
@@ -192,16 +192,16 @@ def test_a_finite_element_power_law_curve_at_large_strain_is_named_powerlaw(gall
 
     T = 30.0
     t = np.linspace(0.0, 2 * T, 121)[1:]
-    curve = Model(("powerlaw",)).simulate({"E_kPa": 8.0, "nu": 0.45, "beta": 0.2},
+    curve = Model(("viscoelastic_powerlaw",)).simulate({"E_kPa": 8.0, "nu": 0.45, "beta": 0.2},
                                           protocol=Protocol(t, 0.02 * np.minimum(t, 2 * T - t)), mesh="coarse")
     F = curve.force_mN + np.random.default_rng(7).normal(0.0, 0.05, curve.force_mN.size)
     m = measurement_from_arrays(curve.depth_mm, F, curve.time_s, source="FE power law")
-    dg = diagnose(m, candidates=("viscoelastic", "powerlaw", "offset"), cache_dir=gallery_cache, mesh="coarse",
+    dg = diagnose(m, candidates=("viscoelastic", "viscoelastic_powerlaw", "offset"), cache_dir=gallery_cache, mesh="coarse",
                   workers=2, in_loop=False)
     print(dg.report())
     top = dg.ranking[0]
-    assert top.effects == ("powerlaw",) and dg.ladder[1].effects == ("powerlaw",), dg.report()
-    assert dg.verdict == "powerlaw" or (dg.verdict == "ambiguous" and "powerlaw" in dg.confounded_with), dg.report()
+    assert top.effects == ("viscoelastic_powerlaw",) and dg.ladder[1].effects == ("viscoelastic_powerlaw",), dg.report()
+    assert dg.verdict == "viscoelastic_powerlaw" or (dg.verdict == "ambiguous" and "viscoelastic_powerlaw" in dg.confounded_with), dg.report()
     assert top.rms_mN < 1.3 * dg.noise_mN and top.white
     assert top.parameters["beta"] == pytest.approx(0.2, rel=0.08)
     vis = next(f for f in dg.ranking if f.effects == ("viscoelastic",))

@@ -15,9 +15,9 @@ and nu. The vocabulary (:data:`EFFECTS`, in this order):
     Coulomb friction between sphere and skin (stick and slip): ``mu``.
 ``adhesion`` (:mod:`.adhesion`)
     work of adhesion ``w_mJ_per_m2`` (pull-off on unloading).
-``powerlaw`` (:mod:`.powerlaw`)
+``viscoelastic_powerlaw`` (:mod:`.powerlaw`)
     power-law relaxation E(t) = E (t / 1 s)^-beta of cells and tissues: ``beta`` (the other
-    relaxation kernel: a model has ``viscoelastic`` or ``powerlaw``).
+    relaxation kernel: a model has ``viscoelastic`` or ``viscoelastic_powerlaw``).
 ``offset`` (:mod:`.offset`)
     a shift of the contact point: ``offset_mm`` (a nuisance parameter of fits).
 

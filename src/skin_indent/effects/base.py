@@ -299,7 +299,7 @@ class Effect:
         parameters are shared.
     kind : str
         Effects of one kind are alternative descriptions of one mechanism (``relaxation``: the
-        kernels ``viscoelastic`` and ``powerlaw``): a model has at most one of a kind, and the
+        kernels ``viscoelastic`` and ``viscoelastic_powerlaw``): a model has at most one of a kind, and the
         diagnosis ranks them against each other instead of stacking them. "": none.
     """
 

@@ -36,7 +36,7 @@ class Model:
         from ..mechanics.contact import SphericalIndenter
 
         names = tuple(e.name for e in instances(self.effects))
-        check_kinds(names)  # one relaxation law (viscoelastic or powerlaw)
+        check_kinds(names)  # one relaxation law (viscoelastic or viscoelastic_powerlaw)
         object.__setattr__(self, "effects", names)
         SphericalIndenter(self.radius_mm)
 

@@ -1,4 +1,4 @@
-"""``powerlaw``: power-law relaxation of cells and tissues, E(t) = E (t / 1 s)^-beta (``beta``).
+"""``viscoelastic_powerlaw``: power-law relaxation of cells and tissues, E(t) = E (t / 1 s)^-beta (``beta``).
 
 Cell rheology follows a power law over decades of time, beta about 0.1-0.4 (Fabry et al.,
 *Phys. Rev. Lett.* 87 (2001) 148102; Efremov et al., *Sci. Rep.* 7 (2017) 1541, whose ViscoIndent
@@ -36,7 +36,7 @@ class PowerLaw(Viscoelastic):
     """Power-law relaxation (module docstring); visible where ``viscoelastic`` is (a hold, an
     unloading segment, or ramps at speeds that differ by more than 1.5 times)."""
 
-    name = "powerlaw"
+    name = "viscoelastic_powerlaw"
     description = "power-law relaxation E(t) = E (t / 1 s)^-beta (E_kPa: the modulus at 1 s)"
     parameters = (
         EffectParameter("beta", "-", 0.0, 0.95, 0.0, False, "exponent of the power-law relaxation"),

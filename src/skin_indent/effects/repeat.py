@@ -116,7 +116,7 @@ def instances(effects) -> tuple[Effect, ...]:
 
 def check_kinds(effects) -> None:
     """One-line error for two effects of one kind in a model (:attr:`~skin_indent.effects.Effect.kind`:
-    ``viscoelastic`` and ``powerlaw`` are alternative relaxation laws)."""
+    ``viscoelastic`` and ``viscoelastic_powerlaw`` are alternative relaxation laws)."""
     kinds: dict[str, str] = {}
     for e in effects:
         obj = e if isinstance(e, Effect) else effect(e)

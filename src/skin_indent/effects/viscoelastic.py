@@ -23,7 +23,7 @@ class Viscoelastic(Effect):
     )
     stage = HISTORY
     needs_history = True
-    kind = "relaxation"  # the alternative kernel: powerlaw (:mod:`.powerlaw`)
+    kind = "relaxation"  # the alternative kernel: viscoelastic_powerlaw (:mod:`.powerlaw`)
 
     def configure(self, spec: ForwardSpec, values: dict) -> None:
         if values["g1"] > 0:
