@@ -3,18 +3,18 @@
 - Every ``.. code-block:: console`` of ``docs/*.rst`` (and every ```` ```console ```` block of
   README.md) whose commands show their output is run as written (``$ skin-indent ...`` lines,
   ``$ cd DIR`` and ``$ echo $?``), from a scratch folder laid out like a clone, and each line it
-  shows must be a line the command prints: the same words, and every number equal to the printed
-  one within one unit of its last shown digit or 0.2 % (counts
-  exactly) (a curve's fit on another CPU may move
-  the last digit; 121 -> 118 does not pass). ``...`` stands for anything: a line of it for lines
-  left out, inside a line for the part left out (times, iteration counts). A block that becomes
-  stale fails here with the line that is no longer printed and what is printed instead.
+  shows must be a line the command prints: the same words, and every number the printed one
+  (a count exactly; a decimal within one unit of its last shown digit or 0.2 %: a fit on another
+  CPU may move the last digit, 121 -> 118 does not pass). ``...`` stands for anything: a line of
+  it for lines left out, inside a line for the part left out (times, iteration counts, hashes).
+  A block that becomes stale fails here with the line no longer printed and the nearest printed.
 - The blocks run on the coarse surfaces the suite builds once per run (``coarse_unit_surfaces``,
   ``diagnosis_surfaces`` in conftest.py, the gallery cache); blocks that need finite elements in
   the loop (two curves of one sample, the plan of the forearm-like curve: minutes on 2 cores) are
   marked ``slow`` (``python -m pytest -m slow tests/test_docs_blocks.py``).
 - Every ``skin-indent`` command of README.md's code blocks parses with today's parser and
-  names files that exist (an option that no longer exists is a defect of the README).
+  names files that exist (an option that no longer exists is a defect of the README), and so
+  does every command of the docs' console blocks; the docs' Python blocks compile.
 - README.md's Python block runs as written and shows the package's progress messages.
 """
 
