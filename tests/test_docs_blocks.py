@@ -284,3 +284,15 @@ def test_readme_python_block_runs_and_shows_progress(tmp_path, gallery_cache):
     assert "E_kPa" in p.stdout and "[[Identification: ekf-paper]]" in p.stdout
     assert "probe: progress is shown" in p.stderr
     assert "Initializing" not in p.stderr  # scikit-fem's own INFO messages stay out
+
+
+def test_the_readme_is_a_first_page():
+    """Issue 39: at most 150 lines, the two set-up commands as CI runs them, three commands on bundled curves."""
+    text = README.read_text()
+    assert len(text.splitlines()) <= 150
+    assert "python -m pip install . && skin-indent demo" in text
+    assert 'python -m pip install -e ".[test,docs]" && python -m pytest' in text
+    commands = [line for block in _readme_code("bash") for line in block.splitlines()
+                if line.startswith(("skin-indent fit src/", "skin-indent diagnose src/"))]
+    assert len(commands) >= 3 and any("--sample" in c for c in commands)
+    assert (ROOT / "docs/_static/diagnose_ladder.png").is_file() and "docs/_static/diagnose_ladder.png" in text
