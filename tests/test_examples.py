@@ -136,8 +136,8 @@ def test_docs_build(tmp_path):
     proc = _sphinx_build(tmp_path, "-D", "plot_gallery=0")
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-5000:]
     html = tmp_path / "html"
-    for page in ("index.html", "theory.html", "api.html", "cli.html", "gallery/index.html",
-                 "gallery/ex05_invivo_identifiability.html"):
+    for page in ("index.html", "theory.html", "api.html", "cli.html", "instruments.html", "clusters.html",
+                 "accuracy.html", "gallery/index.html", "gallery/ex05_invivo_identifiability.html"):
         assert (html / page).is_file(), page
     # the CLI reference is generated from the parser: every command and its options
     cli = (html / "cli.html").read_text()
