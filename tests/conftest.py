@@ -14,7 +14,9 @@ pyproject.toml; ``-n 0`` runs it in one process). Here:
   diagnosis surfaces of the 0.6 mm hidden-effect curves (tests/test_diagnose.py and the ex06
   example) and the coarse unit-radius surfaces that every coarse fit at AFM or skin scale
   scales (tests/test_api.py, test_batch.py, test_real_data.py, which built them each in a
-  cache of their own before).
+  cache of their own before);
+- one :class:`~skin_indent.runtime.context.Context` (fixture ``context``) on that folder, which
+  the fits and diagnoses of every module use (they each made their own before).
 """
 
 from __future__ import annotations
@@ -54,6 +56,20 @@ def build_once(folder: Path, name: str, build):
         out = build()
         marker.write_text(run)
         return out
+
+
+@pytest.fixture(scope="session")
+def context(coarse_unit_surfaces):
+    """The suite's one :class:`~skin_indent.runtime.context.Context`: the gallery cache, two local
+    workers, no progress bar.
+
+    The cache holds the coarse unit-radius surfaces (:func:`coarse_unit_surfaces`), which every
+    coarse fit scales; a test that needs the diagnosis surfaces of the 0.6 mm curves as well also
+    requests :func:`diagnosis_surfaces` (built once per run into the same folder).
+    """
+    from skin_indent.runtime.context import Context
+
+    return Context(cache_dir=coarse_unit_surfaces, workers=2, progress=False)
 
 
 @pytest.fixture(scope="session")

@@ -10,12 +10,6 @@ import skin_indent as si
 from skin_indent.effects import FORCE, Effect, EffectParameter, register, unregister
 
 
-@pytest.fixture(scope="module")
-def context(coarse_unit_surfaces):
-    """Surfaces in the gallery cache, where the coarse unit-radius ones are built once per run (conftest.py)."""
-    return si.Context(cache_dir=coarse_unit_surfaces, workers=2)
-
-
 def test_top_level_names_are_the_functions_not_modules():
     import skin_indent.simulate  # noqa: F401 - importing the seam module must not shadow si.simulate
 

@@ -62,11 +62,6 @@ def _write_curve(path, E_kPa, seed, radius_comment=True):
 
 
 @pytest.fixture(scope="module")
-def cache(coarse_unit_surfaces):
-    return Context(cache_dir=coarse_unit_surfaces, workers=2)
-
-
-@pytest.fixture(scope="module")
 def folder(tmp_path_factory):
     d = tmp_path_factory.mktemp("curves")
     for seed, (name, E) in enumerate(E_KPA.items()):
@@ -78,9 +73,9 @@ def folder(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def batch(folder, cache, tmp_path_factory):
+def batch(folder, context, tmp_path_factory):
     plots = tmp_path_factory.mktemp("plots")
-    rows = fit_many([folder], fixed={"nu": NU}, mesh="coarse", context=cache, progress=False, keep_fits=True,
+    rows = fit_many([folder], fixed={"nu": NU}, mesh="coarse", context=context, progress=False, keep_fits=True,
                     plot_dir=plots, command=["skin-indent", "fit", str(folder)])
     return rows, plots
 
@@ -175,20 +170,20 @@ def test_summary_figure(batch, tmp_path):
     assert summary_figure([], tmp_path / "empty.png").exists()
 
 
-def test_radius_given_and_index(folder, cache, tmp_path):
+def test_radius_given_and_index(folder, context, tmp_path):
     """The radius argument replaces a missing radius comment; index=1 of a CSV is a one-line error row."""
     _write_curve(tmp_path / "plain.csv", 1.0, 7, radius_comment=False)
     rows = fit_many(tmp_path / "plain.csv", radius_mm=R_MM, fixed={"nu": NU}, mesh="coarse",
-                    context=Context(cache_dir=cache.cache_dir, workers=1), progress=False)
+                    context=Context(cache_dir=context.cache_dir, workers=1), progress=False)
     assert len(rows) == 1 and rows[0].E_kPa == pytest.approx(1.0, rel=0.03)
-    rows = fit_many(folder / "cell_a.csv", index=1, mesh="coarse", context=cache, progress=False)
+    rows = fit_many(folder / "cell_a.csv", index=1, mesh="coarse", context=context, progress=False)
     assert len(rows) == 1 and "curve 1 requested" in rows[0].error and "\n" not in rows[0].error
 
 
 # ------------------------------------------------------------------ a force map
-def test_force_map_gives_one_row_per_curve(cache):
+def test_force_map_gives_one_row_per_curve(context):
     pytest.importorskip("afmformats")
-    rows = fit_many(MAP, radius_mm=0.01864, mesh="coarse", context=cache, progress=False)
+    rows = fit_many(MAP, radius_mm=0.01864, mesh="coarse", context=context, progress=False)
     assert [r.index for r in rows] == [0, 1, 2]
     assert [(r.grid_x, r.grid_y) for r in rows] == [(9, 4), (20, 5), (16, 16)]
     assert all(not r.error and np.isfinite(r.E_kPa) and r.x_mm is not None for r in rows)

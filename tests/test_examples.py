@@ -11,6 +11,8 @@ Design, to run every example once in CI:
   10 s;
 - ``test_docs_build_with_gallery`` (marker ``slow``) is the documented full build, which
   also runs the scripts inside sphinx-gallery (about 1.5 minutes).
+- the scripts' tests and the docs builds carry the marker ``gallery``: not in the default run
+  (``python -m pytest``), ``.ci/run`` runs them in a second invocation.
 
 ex04 and ex05 share a response surface cached in the temporary folder
 (``skin_indent_gallery``), keyed by a hash of its grid and of the forward-model sources,
@@ -36,6 +38,9 @@ matplotlib.use("Agg")
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 DOCS = ROOT / "docs"
+#: the scripts and the docs build: out of the default run, .ci/run runs them (pyproject.toml); the check
+#: that every script has a test stays in it
+GALLERY = pytest.mark.gallery
 
 
 @pytest.fixture
@@ -61,18 +66,21 @@ def test_every_example_is_tested():
     assert scripts == tested
 
 
+@GALLERY
 def test_ex01_forward_simulation(run_example):
     g = run_example("ex01_forward_simulation.py")
     # F(0.6 mm) on the coarse mesh against the independent FElupe curve (E = 8 kPa, nu = 0.45)
     assert abs(g["error_at_0_6"]) < 0.01
 
 
+@GALLERY
 def test_ex02_hertz_limit(run_example):
     g = run_example("ex02_hertz_limit.py")
     # all six curves (linear and neo-Hooke, nu = 0.3, 0.45, 0.49) at h/R = 0.001
     assert g["worst_small_depth_error"] < 0.01
 
 
+@GALLERY
 def test_ex03_mesh_convergence(run_example):
     g = run_example("ex03_mesh_convergence.py")
     # the coarse mesh against its uniform refinement, F(0.6 mm)
@@ -82,6 +90,7 @@ def test_ex03_mesh_convergence(run_example):
 PAPER_GRID = pytest.mark.xdist_group("gallery-paper-grid")  # ex04 and ex05 share its surface file
 
 
+@GALLERY
 @PAPER_GRID
 def test_ex04_blind_test(run_example):
     g = run_example("ex04_blind_test.py")
@@ -89,6 +98,7 @@ def test_ex04_blind_test(run_example):
     assert abs(g["blind_E"] - 31.0) < 0.1
 
 
+@GALLERY
 @PAPER_GRID
 def test_ex05_invivo_identifiability(run_example):
     g = run_example("ex05_invivo_identifiability.py")
@@ -96,6 +106,7 @@ def test_ex05_invivo_identifiability(run_example):
     assert abs(g["invivo_E"] - 5.7) < 0.2
 
 
+@GALLERY
 def test_ex06_diagnose(run_example, diagnosis_surfaces):
     g = run_example("ex06_diagnose.py")
     # a layer on a soft half-space (independent FE): named, and adding it brings the error to the noise
@@ -105,12 +116,14 @@ def test_ex06_diagnose(run_example, diagnosis_surfaces):
     assert g["best"].rms_mN < g["forearm"].base.rms_mN and not g["best"].white
 
 
+@GALLERY
 def test_ex07_dask_cluster(run_example):
     pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install 'skin_indent[dask]')")
     g = run_example("ex07_dask_cluster.py")
     assert g["max_difference"] == 0.0  # where the runs happen does not change them
 
 
+@GALLERY
 def test_ex08_batch(run_example):
     g = run_example("ex08_batch.py")
     # a folder of real AFM curves in: one row per curve, each fitted, a table with its provenance
@@ -129,6 +142,7 @@ def _sphinx_build(out: Path, *options: str) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
 
 
+@GALLERY
 @pytest.mark.skipif(importlib.util.find_spec("sphinx") is None,
                     reason="sphinx is not installed (pip install -e '.[docs]')")
 def test_docs_build(tmp_path):
@@ -150,6 +164,7 @@ def test_docs_build(tmp_path):
     assert all((html / s.split("?")[0]).is_file() for s in scripts), scripts
 
 
+@GALLERY
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("sphinx") is None,
                     reason="sphinx is not installed (pip install -e '.[docs]')")

@@ -23,7 +23,8 @@ from skin_indent.simulate import simulate
 
 R = 6.22
 #: one worker runs these tests, in order, on one module-scoped core
-pytestmark = pytest.mark.xdist_group("fe-core")
+# finite elements in the loop: out of the default run, .ci/run runs them (pyproject.toml)
+pytestmark = [pytest.mark.xdist_group("fe-core"), pytest.mark.fe_loop]
 #: forearm-like: dermis over a soft hypodermis over muscle (moduli relative to the dermis)
 TWO_LAYERS = np.array([17.5, 0.48, 1.0, 17.5 / 2.9, 3.0, 2.9 / 9.4])
 

@@ -35,12 +35,6 @@ def cache(gallery_cache, diagnosis_surfaces):
     return gallery_cache
 
 
-def _context(cache):
-    from skin_indent.runtime.context import Context
-
-    return Context(cache_dir=cache, workers=2, progress=False)
-
-
 class Line:
     """F = a h + b: a linear force model, for closed-form posteriors."""
 
@@ -112,9 +106,9 @@ def test_prior_summary_says_who_determined_a_parameter_and_flags_tension():
     assert s["in_tension"]
 
 
-def test_a_layer_with_its_thickness_held_is_recovered_from_an_independent_code(hidden, cache):
+def test_a_layer_with_its_thickness_held_is_recovered_from_an_independent_code(hidden, cache, context):
     r = fit(hidden["v02_layer_soft_base"], model="neo-hooke+layer", fixed={"thickness_mm": 1.0, "nu": 0.45},
-            noise_mN=NOISE, context=_context(cache), mesh="coarse")
+            noise_mN=NOISE, context=context, mesh="coarse")
     assert r.model == "neo-hooke+layer"
     assert r.parameters["thickness_mm"] == 1.0 and "thickness_mm" not in r.std  # held: no sd
     for name in ("E_kPa", "ratio"):
@@ -123,11 +117,10 @@ def test_a_layer_with_its_thickness_held_is_recovered_from_an_independent_code(h
     assert r.quality["white"] and not r.flags
 
 
-def test_a_thickness_prior_is_narrowed_by_the_data_and_a_wrong_one_is_in_tension(hidden, cache):
-    ctx = _context(cache)
+def test_a_thickness_prior_is_narrowed_by_the_data_and_a_wrong_one_is_in_tension(hidden, cache, context):
     curve = hidden["v02_layer_soft_base"]
     r = fit(curve, model="neo-hooke+layer", fixed={"nu": 0.45}, priors={"thickness_mm": (1.0, 0.1)},
-            noise_mN=NOISE, context=ctx, mesh="coarse")
+            noise_mN=NOISE, context=context, mesh="coarse")
     s = r.priors["thickness_mm"]
     assert s["posterior_sd"] <= s["prior_sd"]
     assert r.std["thickness_mm"] == s["posterior_sd"]
@@ -135,35 +128,33 @@ def test_a_thickness_prior_is_narrowed_by_the_data_and_a_wrong_one_is_in_tension
         assert abs(r.parameters[name] - LAYER[name]) < 3 * r.std[name], name
     assert not s["in_tension"] and not r.flags
     # a prior on the other parameters narrows them too: against the free thickness
-    free = fit(curve, model="neo-hooke+layer", fixed={"nu": 0.45}, noise_mN=NOISE, context=ctx, mesh="coarse")
+    free = fit(curve, model="neo-hooke+layer", fixed={"nu": 0.45}, noise_mN=NOISE, context=context, mesh="coarse")
     assert r.std["E_kPa"] < free.std["E_kPa"]
     # 1.6 mm +- 0.1: the data say ~1 mm
     wrong = fit(curve, model="neo-hooke+layer", fixed={"nu": 0.45}, priors={"thickness_mm": (1.6, 0.1)},
-                noise_mN=NOISE, context=ctx, mesh="coarse")
+                noise_mN=NOISE, context=context, mesh="coarse")
     assert wrong.priors["thickness_mm"]["in_tension"]
     assert any("thickness_mm: the prior" in f for f in wrong.flags)
 
 
-def test_the_reduced_chi_square_tells_a_curve_the_model_misses(hidden, cache):
-    ctx = _context(cache)
-    clean = fit(hidden["v01_clean"], model="neo-hooke", noise_mN=NOISE, context=ctx, mesh="coarse")
+def test_the_reduced_chi_square_tells_a_curve_the_model_misses(hidden, cache, context):
+    clean = fit(hidden["v01_clean"], model="neo-hooke", noise_mN=NOISE, context=context, mesh="coarse")
     assert 0.6 < clean.redchi < 1.5
-    missing = fit(hidden["v02_layer_soft_base"], model="neo-hooke", noise_mN=NOISE, context=ctx, mesh="coarse")
+    missing = fit(hidden["v02_layer_soft_base"], model="neo-hooke", noise_mN=NOISE, context=context, mesh="coarse")
     assert missing.redchi > 5
     # the paper's path: its sd, chi-square and quality against the same independent noise
-    paper = fit(hidden["v01_clean"], noise_mN=NOISE, context=ctx, mesh="coarse")
+    paper = fit(hidden["v01_clean"], noise_mN=NOISE, context=context, mesh="coarse")
     assert paper.noise_mN == paper.quality["noise_mN"] == NOISE
     assert 0.6 < paper.redchi < 1.5
 
 
-def test_a_model_fitted_alone_and_on_the_ladder_is_one_fit(hidden, cache):
+def test_a_model_fitted_alone_and_on_the_ladder_is_one_fit(hidden, cache, context):
     from skin_indent.diagnosis import diagnose
 
-    ctx = _context(cache)
     curve = hidden["v02_layer_soft_base"]
-    d = diagnose(curve, add=("layer",), max_rungs=0, in_loop=False, context=ctx, mesh="coarse")
+    d = diagnose(curve, add=("layer",), max_rungs=0, in_loop=False, context=context, mesh="coarse")
     rung = d.ladder[-1]
-    r = fit(curve, model="neo-hooke+layer", context=ctx, mesh="coarse", in_loop=False)
+    r = fit(curve, model="neo-hooke+layer", context=context, mesh="coarse", in_loop=False)
     assert r.rms_mN == pytest.approx(rung.rms_mN, rel=1e-6)
     assert r.noise_mN == pytest.approx(d.noise_mN, rel=1e-12)
     for k, v in rung.parameters.items():
@@ -220,11 +211,11 @@ def test_a_batch_of_a_chosen_model_tabulates_its_parameters(cache, tmp_path, mon
         fit_many(folder, model="neo-hooke+layer", window=(0, 0.5), context=Context(cache_dir=cache, workers=1))
 
 
-def test_a_load_unload_fit_of_a_chosen_model_is_plotted_and_tabulated_whole(hidden, cache, tmp_path):
+def test_a_load_unload_fit_of_a_chosen_model_is_plotted_and_tabulated_whole(hidden, cache, context, tmp_path):
     from skin_indent.report.fit_figure import fit_arrays, plot_fit, write_fit_csv
     from skin_indent.measurement import load_csv
 
-    r = fit(hidden["v06_viscoelastic"], model="neo-hooke+viscoelastic", noise_mN=NOISE, context=_context(cache),
+    r = fit(hidden["v06_viscoelastic"], model="neo-hooke+viscoelastic", noise_mN=NOISE, context=context,
             mesh="coarse")
     assert r.prepared.has("retract") and r.n_points == r.prepared.n == 200
     a = fit_arrays(r)

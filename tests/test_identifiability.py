@@ -53,6 +53,7 @@ def _rung(model, x, result=None, prediction=None):
                                  prediction_mN=model.force(model.depth_mm, x) if prediction is None else prediction)
 
 
+@pytest.mark.fe_loop  # finite elements in the loop: .ci/run runs it, not the default run
 def test_same_measurement_is_the_fits_covariance_and_similarity_holds():
     """(i) Known answers. A half-space with a contact offset, fitted with the finite-element model
     in the loop: the predicted standard deviations for the recorded measurement equal the fit's
@@ -84,6 +85,7 @@ def test_same_measurement_is_the_fits_covariance_and_similarity_holds():
     core.close()
 
 
+@pytest.mark.fe_loop  # finite elements in the loop: .ci/run runs it, not the default run
 def test_a_deeper_indentation_determines_a_layer_thickness():
     """(ii) A 2 mm layer over a half-space four times softer, indented 0.3 mm with the skin sphere:
     the curve does not determine the thickness (sd over half of it); 1.5 times deeper, the sphere

@@ -18,14 +18,6 @@ from skin_indent.measurement import load_csv, measurement_from_arrays
 from skin_indent.protocol import Protocol
 
 
-@pytest.fixture(scope="module")
-def ctx(gallery_cache, diagnosis_surfaces):
-    """The gallery's cache, where the coarse diagnosis surfaces are built once per run."""
-    from skin_indent.runtime.context import Context
-
-    return Context(cache_dir=gallery_cache, workers=2)
-
-
 def _own(effects, theta, *, sigma, seed, protocol=None, shift_mm=0.0, mesh="coarse"):
     protocol = protocol or Protocol.ramp(0.6, 100, 0.02)
     curve = Model(tuple(effects)).simulate(theta, protocol=protocol, mesh=mesh)
@@ -50,11 +42,11 @@ def _within_3_sd_or_undetermined(d, truth):
         assert abs(got - v) <= 3 * sd, (k, got, sd, d.report())
 
 
-def test_ladder_climbs_stiffening_and_offset(ctx):
+def test_ladder_climbs_stiffening_and_offset(context, diagnosis_surfaces):
     """Stiffening and a shifted contact point: both named (either order), the last rung at the noise."""
     sigma = 0.04
     m = _own(("stiffening",), {"E_kPa": 6.0, "nu": 0.47, "C20_kPa": 15.0}, sigma=sigma, seed=5, shift_mm=0.03)
-    d = diagnose(m, candidates=("stiffening", "offset", "viscoelastic"), context=ctx)
+    d = diagnose(m, candidates=("stiffening", "offset", "viscoelastic"), context=context)
     assert sorted(d.missing) == ["offset", "stiffening"], d.report()
     assert d.verdict in ("stiffening+offset", "offset+stiffening"), d.report()
     _ends_at_the_noise(d, sigma)
@@ -65,14 +57,14 @@ def test_ladder_climbs_stiffening_and_offset(ctx):
     assert [r["model"] for r in out["ladder"]] == [f.model for f in d.ladder] and out["missing"] == list(d.missing)
 
 
-def test_a_mimicked_set_is_never_named_wrongly_alone(ctx):
+def test_a_mimicked_set_is_never_named_wrongly_alone(context, diagnosis_surfaces):
     """Stiffening with a shifted contact point also looks like a stiff layer over a softer half-space
     (both stiffen the deep part and move the start): the ladder names the right set, or says
     ambiguous naming both with the measurement that separates them; never the layer alone."""
     sigma = 0.04
     m = _own(("stiffening",), {"E_kPa": 5.0, "nu": 0.47, "C20_kPa": 20.0}, sigma=sigma, seed=41, shift_mm=0.03,
              protocol=Protocol.ramp(0.57, 95, 0.02))
-    d = diagnose(m, candidates=("layer", "stiffening", "offset"), in_loop=False, context=ctx)
+    d = diagnose(m, candidates=("layer", "stiffening", "offset"), in_loop=False, context=context)
     right = sorted(d.missing) == ["offset", "stiffening"]
     named_both = (d.verdict == "ambiguous" and any("stiffening" in c for c in d.confounded_with)
                   and any("layer" in c for c in d.confounded_with) and d.suggested_measurement)
@@ -80,33 +72,33 @@ def test_a_mimicked_set_is_never_named_wrongly_alone(ctx):
     assert d.missing != ("layer",), d.report()
 
 
-def test_clean_curve_climbs_no_rung(ctx):
+def test_clean_curve_climbs_no_rung(context, diagnosis_surfaces):
     sigma = 0.03
     m = _own((), {"E_kPa": 9.0, "nu": 0.46}, sigma=sigma, seed=11)
-    d = diagnose(m, candidates=("stiffening", "offset"), context=ctx)
+    d = diagnose(m, candidates=("stiffening", "offset"), context=context)
     assert d.verdict == "none" and len(d.ladder) == 1 and not d.missing, d.report()
     assert "no missing effect" in d.sentence()
 
 
-def test_a_structured_rung_is_never_called_explained(ctx):
+def test_a_structured_rung_is_never_called_explained(context, diagnosis_surfaces):
     """With the only candidate that can help left out, the sentence says the misfit stays."""
     m = _own(("stiffening",), {"E_kPa": 5.0, "nu": 0.47, "C20_kPa": 25.0}, sigma=0.03, seed=12)
-    d = diagnose(m, candidates=("offset",), noise_mN=0.03, context=ctx)
+    d = diagnose(m, candidates=("offset",), noise_mN=0.03, context=context)
     assert not d.explained
     assert "explains" not in d.sentence() or "does not explain" in d.sentence(), d.report()
 
 
 @pytest.mark.slow
-def test_forearm_ladder_names_layers(ctx):
+def test_forearm_ladder_names_layers(context, diagnosis_surfaces):
     """The demo's curve (dermis over hypodermis over muscle): the ladder ends at the noise and names layers."""
     m = load_csv(bundled_path("forearm_like.csv"))
-    d = diagnose(m, context=ctx)
+    d = diagnose(m, context=context)
     assert "layer" in d.missing, d.report()
     assert d.current.rms_mN < 1.3 * d.noise_mN and d.current.white, d.report()
 
 
 @pytest.mark.slow
-def test_two_layers_on_a_rigid_base_named(ctx):
+def test_two_layers_on_a_rigid_base_named(context, diagnosis_surfaces):
     # A layer with strain stiffening (E 8 kPa, 1.5 mm over a base 0.3 times as stiff, C20 16 kPa) is not
     # a case for one sphere: a thinner layer without stiffening explains its curve to the noise (0.74 mm
     # at noise 0.04 mN, 0.78 mm at 0.02; 1.44 mm for a 3 mm truth), so the climb rightly stops at one
@@ -122,7 +114,7 @@ def test_two_layers_on_a_rigid_base_named(ctx):
     # the synthetic data that measured curves do not have (the fits' runs interpolate a smooth
     # curve between solved depths); on the medium mesh by 0.03% rms
     m = _own(effects, truth, sigma=sigma, seed=21, mesh="medium")
-    d = diagnose(m, candidates=("layer", "stiffening", "offset"), context=ctx)
+    d = diagnose(m, candidates=("layer", "stiffening", "offset"), context=context)
     assert sorted(d.missing) == expected or d.verdict == "ambiguous", d.report()
     _ends_at_the_noise(d, sigma)
     if sorted(d.missing) == expected:
@@ -130,12 +122,12 @@ def test_two_layers_on_a_rigid_base_named(ctx):
 
 
 @pytest.mark.slow
-def test_layer_and_relaxation_with_hold_and_unloading(ctx):
+def test_layer_and_relaxation_with_hold_and_unloading(context, diagnosis_surfaces):
     sigma = 0.03
     hist = Protocol.ramp(0.6, 50, 0.02, hold_s=20.0, hold_points=30, unload=True)
     truth = {"E_kPa": 10.0, "nu": 0.47, "thickness_mm": 1.2, "ratio": 0.3, "g1": 0.35, "tau1_s": 5.0}
     m = _own(("layer", "viscoelastic"), truth, sigma=sigma, seed=31, protocol=hist)
-    d = diagnose(m, candidates=("layer", "viscoelastic", "offset"), context=ctx)
+    d = diagnose(m, candidates=("layer", "viscoelastic", "offset"), context=context)
     assert sorted(d.missing) == ["layer", "viscoelastic"], d.report()
     _ends_at_the_noise(d, sigma)
 

@@ -38,12 +38,6 @@ from skin_indent.runtime.provenance import read_provenance
 RIVALS = pytest.mark.xdist_group("plan-rivals")
 
 
-@pytest.fixture(scope="module")
-def ctx(gallery_cache, diagnosis_surfaces):
-    """The gallery's cache, where the coarse diagnosis surfaces are built once per run."""
-    return si.Context(cache_dir=gallery_cache, workers=2)
-
-
 def _history(depth, radius_mm, time=None):
     """A prepared curve of the points ``depth`` (mm, contact at 0), as the candidates' points are."""
     m = measurement_from_arrays(np.asarray(depth, dtype=float), np.ones(len(depth)), time, source="points")
@@ -105,20 +99,20 @@ def test_a_measurement_made_twice_halves_the_variance():
 
 # ----------------------------------------------------------------------------- a curve with a rival
 @pytest.fixture(scope="module")
-def rival_diagnosis(ctx):
+def rival_diagnosis(context, diagnosis_surfaces):
     """Strain stiffening, for which one layer over a stiffer base stands in (BIC within RIVAL)."""
     curve = Model(("stiffening",)).simulate({"E_kPa": 6.0, "nu": 0.47, "C20_kPa": 6.0},
                                              protocol=Protocol.ramp(0.6, 100, 0.02), mesh="coarse")
     force = curve.force_mN + np.random.default_rng(3).normal(0.0, 0.05, curve.force_mN.size)
     m = measurement_from_arrays(curve.depth_mm, force, curve.time_s, source="stiffening")
-    return si.diagnose(m, candidates=("layer", "stiffening"), in_loop=False, max_rungs=1, context=ctx)
+    return si.diagnose(m, candidates=("layer", "stiffening"), in_loop=False, max_rungs=1, context=context)
 
 
 @pytest.fixture(scope="module")
-def rival_plan(rival_diagnosis, ctx):
+def rival_plan(rival_diagnosis, context):
     """The plan with a sphere of half the radius, 1.5 times deeper (the default), the same sphere again,
     and a hold and a speed that no explanation cares about."""
-    return plan(rival_diagnosis, radii=(3.11,), hold_s=60.0, speeds_mm_per_s=(0.1,), context=ctx)
+    return plan(rival_diagnosis, radii=(3.11,), hold_s=60.0, speeds_mm_per_s=(0.1,), context=context)
 
 
 @RIVALS
@@ -193,7 +187,7 @@ def test_a_hold_or_another_speed_is_not_weighed_where_no_explanation_acts_in_tim
     assert "not weighed: a 60 s hold" in p.report()
 
 
-def test_a_relaxation_time_is_determined_by_a_hold_or_another_speed(ctx, tmp_path):
+def test_a_relaxation_time_is_determined_by_a_hold_or_another_speed(context, diagnosis_surfaces, tmp_path):
     """One Prony term (g1 = 0.3) seen through a ramp and a 5 s hold leaves its time undetermined; a long
     hold or another loading speed, fitted with the recorded curve, determines it better than the
     measurement made again, whose standard deviations are those of the recorded curve over sqrt(2)."""
@@ -202,9 +196,9 @@ def test_a_relaxation_time_is_determined_by_a_hold_or_another_speed(ctx, tmp_pat
                                                mesh="coarse")
     force = curve.force_mN + np.random.default_rng(5).normal(0.0, 0.05, curve.force_mN.size)
     m = measurement_from_arrays(curve.depth_mm, force, curve.time_s, source="relaxing")
-    d = si.diagnose(m, candidates=("viscoelastic",), in_loop=False, max_rungs=1, context=ctx)
+    d = si.diagnose(m, candidates=("viscoelastic",), in_loop=False, max_rungs=1, context=context)
     assert d.verdict == "viscoelastic" and "tau1_s" in d.not_determined, d.report()
-    p = plan(d, radii=(), hold_s=120.0, speeds_mm_per_s=(0.2,), context=ctx)
+    p = plan(d, radii=(), hold_s=120.0, speeds_mm_per_s=(0.2,), context=context)
     assert [f.model for f in p.explanations] == ["neo-hooke+viscoelastic"] and set(p.undetermined) == {"tau1_s"}
     by_kind = {a.candidate.kind: a for a in p.ranking}
     assert set(by_kind) == {"sphere", "deeper", "hold", "speed"} and all(a.error is None for a in p.ranking)

@@ -25,6 +25,9 @@ import pytest
 from skin_indent.response_surface import LocalProcesses, ResponseSurface, RunStore, SurfaceGrid
 from skin_indent.response_surface._cache import run_key
 
+# killed and concurrent builds: out of the default run, .ci/run runs them (pyproject.toml)
+pytestmark = pytest.mark.resume
+
 SRC = str(Path(__file__).parents[1] / "src")
 SETTINGS = {"model": "slow stand-in", "radius_mm": 6.22, "code_version": "test"}
 GRID = SurfaceGrid(np.linspace(0.01, 0.6, 30), np.geomspace(1, 100, 4), np.linspace(0.2, 0.49, 12))

@@ -189,6 +189,7 @@ def test_fe_core_keys_differ_with_everything_that_determines_a_run(tmp_path):
     assert key((*base[:3], "any mesh", *base[4:])) == keys["as built"]
 
 
+@pytest.mark.fe_loop  # finite elements in the loop: .ci/run runs it, not the default run
 def test_a_rerun_of_a_fit_in_the_loop_solves_nothing(tmp_path, solves):
     """A fit with the finite-element model in the loop (a layer: E, the compliance of the half-space
     below and a contact offset free), made again by another core on the same cache: no solve, the

@@ -110,11 +110,9 @@ def two_spheres():
     return [curve((), theta, 6.22, seed=11, name="halfspace"), curve((), theta, 3.11, seed=12, name="halfspace")]
 
 
-def test_a_joint_fit_of_two_spheres_recovers_the_half_space_and_determines_nu_better(two_spheres, gallery_cache,
-                                                                                     coarse_unit_surfaces):
-    ctx = _context(gallery_cache)
-    joint = fit(two_spheres, model="neo-hooke", context=ctx)
-    alone = [fit(m, model="neo-hooke", context=ctx) for m in two_spheres]
+def test_a_joint_fit_of_two_spheres_recovers_the_half_space_and_determines_nu_better(two_spheres, context):
+    joint = fit(two_spheres, model="neo-hooke", context=context)
+    alone = [fit(m, model="neo-hooke", context=context) for m in two_spheres]
     for name, truth in (("E_kPa", 10.0), ("nu", 0.45)):
         assert abs(joint.parameters[name] - truth) < 3 * joint.std[name] + 0.003 * truth, name
     # two radii see the large-strain shape at two h/R: nu better determined than by either curve
@@ -126,16 +124,16 @@ def test_a_joint_fit_of_two_spheres_recovers_the_half_space_and_determines_nu_be
     assert joint.trusted
 
 
-def test_two_loading_speeds_show_relaxation_that_one_ramp_cannot(gallery_cache, diagnosis_surfaces, tmp_path):
+def test_two_loading_speeds_show_relaxation_that_one_ramp_cannot(context, diagnosis_surfaces, tmp_path):
     from skin_indent.diagnosis import diagnose
 
     theta = {"E_kPa": 10.0, "nu": 0.45, "g1": 0.4, "tau1_s": 5.0}
     slow = curve(("viscoelastic",), theta, 6.22, speed=0.02, seed=21, name="slow")
     fast = curve(("viscoelastic",), theta, 6.22, speed=0.2, seed=22, name="fast")
-    ctx = _context(gallery_cache)
-    one = diagnose(slow, candidates=("viscoelastic", "stiffening"), context=ctx, in_loop=False, max_rungs=1)
+    one = diagnose(slow, candidates=("viscoelastic", "stiffening"), context=context, in_loop=False, max_rungs=1)
     assert "viscoelastic" in one.not_detectable  # a single constant-speed ramp
-    both = diagnose([slow, fast], candidates=("viscoelastic", "stiffening"), context=ctx, in_loop=False, max_rungs=2)
+    both = diagnose([slow, fast], candidates=("viscoelastic", "stiffening"), context=context, in_loop=False,
+                    max_rungs=2)
     assert both.verdict == "viscoelastic", both.report()
     assert both.explained
     g1 = both.current.parameters["g1"]
@@ -154,13 +152,11 @@ def test_two_loading_speeds_show_relaxation_that_one_ramp_cannot(gallery_cache, 
     assert (tmp_path / "report" / "fit.png").is_file() and (tmp_path / "report" / "ladder.png").is_file()
 
 
-def test_a_prior_narrows_the_other_parameters_and_a_wrong_one_is_in_tension(gallery_cache, diagnosis_surfaces,
-                                                                           hidden):
+def test_a_prior_narrows_the_other_parameters_and_a_wrong_one_is_in_tension(context, diagnosis_surfaces, hidden):
     from skin_indent.diagnosis import diagnose
 
-    ctx = _context(gallery_cache)
     data = hidden["v02_layer_soft_base"]  # a 1.0 mm layer of 25 kPa over 4 kPa (answer key)
-    kw = dict(candidates=("layer",), add=("layer",), max_rungs=0, context=ctx, in_loop=False)
+    kw = dict(candidates=("layer",), add=("layer",), max_rungs=0, context=context, in_loop=False)
     free = diagnose(data, **kw).current
     known = diagnose(data, priors={"thickness_mm": (1.0, 0.05)}, **kw)
     told = known.current
@@ -286,7 +282,7 @@ def test_the_forearm_like_pair_is_two_layers_explained_to_the_noise(tmp_path):
     assert _within_noise(d), d.report()
 
 
-def test_plan_of_two_curves_adds_a_third_measurement_to_both(gallery_cache, diagnosis_surfaces):
+def test_plan_of_two_curves_adds_a_third_measurement_to_both(context, diagnosis_surfaces):
     """A relaxation time that a ramp with a short hold leaves undetermined, recorded twice (two curves of one
     sample, each its own noise): the plan's candidates are fitted with both curves, so the same sphere once
     more brings the standard deviations of the two curves to sqrt(2/3) of theirs (information 2 -> 3), while
@@ -299,10 +295,9 @@ def test_plan_of_two_curves_adds_a_third_measurement_to_both(gallery_cache, diag
     clean = Model(("viscoelastic",)).simulate(theta, protocol=proto, mesh="coarse")
     ms = [measurement_from_arrays(clean.depth_mm, clean.force_mN + np.random.default_rng(s).normal(0, 0.05, 70),
                                   clean.time_s, source=f"relaxing{s}", radius_mm=6.22) for s in (5, 6)]
-    ctx = _context(gallery_cache)
-    d = diagnose(ms, candidates=("viscoelastic",), in_loop=False, max_rungs=1, context=ctx)
+    d = diagnose(ms, candidates=("viscoelastic",), in_loop=False, max_rungs=1, context=context)
     assert d.verdict == "viscoelastic" and "tau1_s" in d.not_determined, d.report()
-    p = plan(d, radii=(), hold_s=120.0, context=ctx)
+    p = plan(d, radii=(), hold_s=120.0, context=context)
     assert [c.source for c, _ in recorded(d)] == ["relaxing5", "relaxing6"]
     by_kind = {a.candidate.kind: a for a in p.ranking}
     same = by_kind["sphere"]

@@ -23,15 +23,9 @@ from skin_indent.measurement import MeasurementError, load_csv, measurement_from
 from skin_indent.measurement.scale import (AFM_UNITS, SKIN_UNITS, Name, Quantity, UnitText, afm_scale,
                                           display_units, shown_in)
 from skin_indent.report.batch_table import row_line
-from skin_indent.runtime.context import Context
 
 JPK = si.bundled_path("afm_jpk_force-save-example_R18.64um.csv")
 FOREARM = si.bundled_path("forearm_like.csv")
-
-
-@pytest.fixture(scope="module")
-def context(coarse_unit_surfaces):
-    return Context(cache_dir=coarse_unit_surfaces, workers=1, progress=False)
 
 
 @pytest.fixture

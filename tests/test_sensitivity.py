@@ -8,7 +8,10 @@ round-off floor on the coarse mesh grows as the depth shrinks (~1e-10 relative a
 0.006 mm, ~1e-11 at 0.3 mm; consistent with the cancellation in the gap |x - c| - R,
 R = 6.22 mm, of penetrations of 1e-5 to 1e-4 mm), so the differences are taken on direct solves at 0.3-0.6 mm with
 ``rtol=3e-11``; the fourth-order stencil then allows steps of 0.2-0.5% of the
-parameter (noise and truncation ~1e-8). The spline path (solved depths from h_max/100)
+parameter (noise and truncation ~1e-8). Where 3e-11 is below the round-off floor (the
+cut steps toward 0.3 mm pass 0.04 mm; a solve's state is at its floor half the time at
+0.3-0.6 mm) Newton stops at that floor (``newton_converged``): residuals of at most
+1.5e-10, on any floating-point path. The spline path (solved depths from h_max/100)
 is checked with E, in which the force is linear.
 
 The discrete model is only piecewise smooth in the parameters: each time a facet
@@ -85,12 +88,17 @@ def test_young_modulus_and_homogeneity(contact_sets):
     assert set(curve.sensitivities) == {(0, "E_kPa"), (0, "nu")}
     # the force is homogeneous of degree one in E (penalty scaled by E): E dF/dE = F
     dE = curve.sensitivities[0, "E_kPa"]
-    # (to the round-off of states converged to 2e-10: 1.0e-9 and 1.1e-9 on two increment paths)
-    assert np.max(np.abs(dE * law.E_kPa - curve.force_mN)) < 3e-9 * np.max(curve.force_mN)
-    # direct solves converged to 3e-11: homogeneous to 4e-12
+    # to the accuracy of its states: 1.3-5 times their largest relative residual (1e-10 to 2e-10 here, up to
+    # the round-off floor of 1e-9 at 0.006 mm) on increment paths and OpenBLAS kernels
+    res = max(curve.report.residuals)
+    assert np.max(np.abs(dE * law.E_kPa - curve.force_mN)) < 15 * res * np.max(curve.force_mN)
+    # direct solves converged to 3e-11 or to their round-off floor (relative residuals of 1e-11 to 8e-11):
+    # homogeneous to 0.015-0.14 of their largest residual on three OpenBLAS kernels (SkylakeX, Haswell, Prescott)
     direct, _ = contact_sets(law, SPHERE, sensitivities=True, **DIRECT)
     dE = direct.sensitivities[0, "E_kPa"]
-    assert np.max(np.abs(dE * law.E_kPa - direct.force_mN)) < 1e-10 * np.max(direct.force_mN)
+    res = max(direct.report.residuals)
+    assert res <= 3e-10  # the floor at 0.3-0.6 mm
+    assert np.max(np.abs(dE * law.E_kPa - direct.force_mN)) < res * np.max(direct.force_mN)
     # F is linear in E: a plain central difference with a large step has no truncation error
     _check(contact_sets, lambda p: NeoHooke(p, NU), 10.0, (0, "E_kPa"), 1.0, SPLINE, order=2)
 

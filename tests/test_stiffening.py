@@ -103,9 +103,11 @@ def test_far_field_stress_keeps_its_digits():
     P_lin = LinearElastic(10.0, 0.45).stress(H)
     P_nh = NeoHooke(10.0, 0.45).stress(H)
     assert np.abs(P - P_lin).max() < 1e-6 * np.abs(P_lin).max()
-    assert np.abs(P - P_nh).max() <= 1e-15 * np.abs(P_nh).max()
+    # digits lost to cancellation would show as ~eps/|H| ~ 1e-7; the laws agree to 0.2-0.4 eps on
+    # numpy's AVX-512 and AVX2 paths: a bound of 45 eps holds on any floating-point path
+    assert np.abs(P - P_nh).max() <= 1e-14 * np.abs(P_nh).max()
     P5, A55 = st.tangent_components(H, F_COMPONENTS)
-    assert np.abs(P5 - P[[0, 0, 1, 1, 2], [0, 1, 0, 1, 2]]).max() <= 1e-15 * np.abs(P).max()
+    assert np.abs(P5 - P[[0, 0, 1, 1, 2], [0, 1, 0, 1, 2]]).max() <= 1e-14 * np.abs(P).max()
     # I1b - 3 is O(|H|^2) ~ 1e-18 here, not the O(1e-16) roundoff of forming J^(-2/3) I1 - 3
     _, _, lnJ, _ = kinematics(H)
     _, b, _ = st._scalars(H, lnJ)

@@ -52,6 +52,7 @@ def test_a_history_dependent_problem_refuses_a_warm_start():
                  contact=ContactLaw(friction=0.5), initial_fields=[None] * 5)
 
 
+@pytest.mark.fe_loop  # finite elements in the loop: .ci/run runs it, not the default run
 def test_fe_core_warm_starts_from_the_nearest_run(monkeypatch):
     """Two evaluations 1% apart in the thickness and the compliance: the second is warm-started from the
     first, and equals what a core that never warm-starts gives (same mesh reference) to 1e-7."""

@@ -16,7 +16,10 @@ of the potential along the Newton direction (a line search on its directional
 derivative), and halves the increment when Newton fails (an elastic,
 frictionless body then keeps the depth step that converged for the next increments,
 see :data:`EASY_ITERATIONS`). When even small increments fail,
-:class:`ConvergenceError` says where and why. On the default mesh a 12-increment
+:class:`ConvergenceError` says where and why. An iterate converges when its residual
+relative to the forces is below ``rtol``, or, for a tolerance float64 cannot attain, when it
+is within the residual's round-off floor and the Newton increment is negligible
+(:func:`~.convergence.newton_converged`). On the default mesh a 12-increment
 curve takes ~2.7 Newton iterations per increment, ~9 LU factorisations and ~24
 solves by conjugate gradients preconditioned with an earlier factorisation
 (:class:`~.linear.TangentSolver`).
@@ -39,6 +42,7 @@ import numpy as np
 
 from .axisymmetric import AxisymmetricSolid, SparsityPattern
 from .contact import ContactLaw, SphereContact, SphericalIndenter
+from .convergence import newton_converged, roundoff_floor
 from .layers import SQUEEZE_FROM, LayeredSample
 from .linear import FrictionalTangentSolver, TangentSolver
 from .materials import Material
@@ -143,7 +147,8 @@ class NewtonReport:
     iterations : list of int
         Newton iterations of each converged increment.
     residuals : list of float
-        Final relative residual of each increment.
+        Final relative residual of each increment (above ``rtol`` where it stopped at the
+        round-off floor, see ``roundoff_stops``).
     step_cuts : int
         How often an increment was halved.
     line_search_backtracks : int
@@ -161,6 +166,9 @@ class NewtonReport:
         Sparse LU factorisations of a tangent.
     preconditioned_solves : int
         Linear solves done by a Krylov method preconditioned with an earlier factorisation.
+    roundoff_stops : int
+        Increments accepted at the residual's round-off floor rather than below ``rtol``
+        (see :func:`~.convergence.newton_converged`).
     """
 
     increments: int = 0
@@ -174,6 +182,7 @@ class NewtonReport:
     modified_steps: int = 0
     factorisations: int = 0
     preconditioned_solves: int = 0
+    roundoff_stops: int = 0
 
     @property
     def total_iterations(self) -> int:
@@ -213,7 +222,10 @@ class IndentationProblem:
     regions : sequence of (element indices, Material), optional
         Materials per element group (layered bodies).
     rtol : float
-        Newton tolerance on the free residual relative to the contact force vector.
+        Newton tolerance on the free residual relative to the larger of the internal and
+        contact force vectors. Below the residual's round-off floor (``roundoff_floor``), an
+        iterate at that floor whose Newton increment is negligible is accepted instead
+        (:func:`~.convergence.newton_converged`): any tolerance converges, on any floating-point path.
     max_iterations : int
         Newton iterations allowed per increment before it is cut.
     max_cuts : int
@@ -307,6 +319,12 @@ class IndentationProblem:
         """Contact quadrature points touching the sphere at ``u`` (frictionless contact), else None."""
         return self.contact.state(u, depth).pressure_kPa > 0 if self._plain_contact else None
 
+    def roundoff_floor(self, u: np.ndarray, depth: float, active=None) -> float:
+        """Norm of the round-off (mN) that the residual carries at ``u`` (after :meth:`_residual` at ``u``),
+        the floor of :func:`~.convergence.newton_converged`: see :func:`~.convergence.roundoff_floor`.
+        ``active``: the touching contact quadrature points, if known."""
+        return roundoff_floor(self.solid, self.contact, u, depth, self.free, active)
+
     def _contact_set_moved(self, active) -> bool:
         """Whether more than :data:`REFACTORISE_AFTER_CONTACT_CHANGES` contact points (``active``: the
         touching ones now) changed state since the stored factorisation was computed in Newton."""
@@ -361,7 +379,7 @@ class IndentationProblem:
             ref = max(np.linalg.norm(f_c[free]), np.linalg.norm(f_int[free]), self.force_floor,
                       1e-3 * self.solid.gross_force)
             rel_before, rel = rel, np.linalg.norm(r) / ref
-            if rel <= self.rtol:
+            if newton_converged(rel, self.rtol):
                 return True, it, rel, force
             if it == self.max_iterations or not np.isfinite(rel):
                 break
@@ -383,6 +401,12 @@ class IndentationProblem:
                 break
             if self.linear_solver.factorisations > factorisations:
                 self._factorised = (self.linear_solver.factorisations, active)
+            norm_u = float(np.linalg.norm(u[free]))
+            if norm_u > 0 and newton_converged(rel, self.rtol, self.roundoff_floor(u, depth, active) / ref,
+                                               float(np.linalg.norm(du_free)) / norm_u):
+                # stagnation at round-off: the increment would move the state within it
+                report.roundoff_stops += 1
+                return True, it, rel, force
             du = np.zeros_like(u)
             du[free] = du_free
             g0 = float(r @ du_free)
