@@ -72,6 +72,7 @@ from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggest
 from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RIVAL, STRONG, Scores, explained,
                        settled)
 from .result import Diagnosis, Step
+from .segment_misfit import segment_misfits
 from ..inverse.residuals import effective_sample_size
 from ..runtime.context import context_of
 from ..runtime.provenance import records_call
@@ -190,6 +191,57 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
                            f"the climb stopped at max_rungs = {max_rungs} before examining "
                            f"{'+'.join(unexamined) or 'the given model'}")
     return out
+
+
+def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
+    """The instrument's effects the curve shows, added greedily on top of ``add``.
+
+    Each candidate of the instrument (:attr:`~skin_indent.effects.Effect.instrument`: drag, the
+    baselines) that can show in the data is fitted on top of the current model, with the sample's
+    parameters; the best is added while it lowers the BIC by more than :data:`STRONG` (at the
+    effective sample size of these fits). The parts out of contact, where the sample gives no
+    force, weigh as much as the rest: an effect of the instrument is named there first, so that no
+    effect of the sample is named to absorb it.
+
+    Returns
+    -------
+    key : tuple of str
+        The instrument's effects named, in the order they were added.
+    steps : list of Step
+        The examinations (the candidates ranked on top of each model).
+    """
+    key: tuple = ()
+    steps: list = []
+    while True:
+        current = fitter.fit(add + key)
+        wanted, hidden = [], {}
+        for name in candidates:
+            if name in key:
+                continue
+            why = fitter.visible(effect(name))
+            if why is None:
+                wanted.append(name)
+            else:
+                hidden[name] = why
+        if not wanted:
+            break
+        fitted = fitter.fit_all([add + key + (n,) for n in wanted])
+        tried = [f for f in fitted.values() if not isinstance(f, ValueError)]
+        for n in wanted:
+            if isinstance(fitted[add + key + (n,)], ValueError):
+                hidden[n] = f"{NOT_FITTED}: {fitted[add + key + (n,)]}"
+        if not tried:
+            break
+        scores = Scores(fitter.data.n, _effective_size(fitter, [current, *tried]))
+        current = scores(current)
+        ranking = sorted((scores(f) for f in tried), key=lambda f: f.bic)
+        named = current.bic - ranking[0].bic > STRONG
+        steps.append(Step(current, ranking, hidden, ranking[0].effects[-1] if named else "none", []))
+        if not named:
+            break
+        key = key + (ranking[0].effects[-1],)
+        log.info("the instrument: %s named (BIC lower by %.1f)", key[-1], current.bic - ranking[0].bic)
+    return key, steps
 
 
 def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
@@ -312,6 +364,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         effect(name)  # one line naming the vocabulary for an unknown name
     add = tuple(effect(a).name for a in add)
     candidates = tuple(effect(c).name for c in candidates)
+    all_candidates = candidates
     instances(add)  # one line for an effect given twice that cannot repeat
     for name in add:
         if effect(name).stage == WEIGHED:
@@ -334,6 +387,13 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
                  "loop %s", c.n, c.source, ", ".join(segments), s, c.radius_mm, mesh, "allowed" if in_loop else "off")
     for i in range(len(add) + 1):
         fitter.fit(add[:i])
+    # the instrument first: drag and the baselines, which the parts out of contact determine, are
+    # fitted with the sample's parameters and stay in every model the sample's climb fits
+    given = add
+    instrument_candidates = tuple(c for c in candidates if effect(c).instrument)
+    candidates = tuple(c for c in candidates if not effect(c).instrument)
+    instrument, instrument_steps = _instrument(fitter, add, instrument_candidates)
+    add = add + instrument
 
     # the first examination: the candidates on top of the given model; the effective sample size of
     # the best fit there is that of every BIC of the diagnosis (each decision and each number reported)
@@ -367,6 +427,21 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         alternatives = [f for f, k, _ in finals[1:] if not (_contains(k, key) or _contains(key, k))]
     else:
         key = add
+    # a second look at the instrument, on top of the sample's model: an effect of the instrument that
+    # the sample's misfit hid (the near-wall drag standing in for relaxation in contact) is named now,
+    # and placed with the others, before the sample's effects
+    more, more_steps = _instrument(fitter, key, tuple(c for c in instrument_candidates if c not in key))
+    if more:
+        instrument, instrument_steps = instrument + more, instrument_steps + more_steps
+        key = add + more + key[len(add):]
+        add = add + more
+        # the sample's model with the instrument's effects complete, examined again (a climb of the
+        # rungs left): what the instrument explains now may leave another effect of the sample unneeded
+        # or name one more
+        more_steps = []
+        key = _climb(fitter, key, candidates, scores, max(max_rungs - len(key[len(add):]), 1), more_steps)
+        steps += more_steps
+        examined += more_steps
     ladder = [scores(fitter.fit(key[:i])) for i in range(len(key) + 1)]
     missing = key[len(add):]
     verdict, confounded, suggestion = first.verdict, [], None
@@ -421,12 +496,18 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
 
     steps = [dataclasses.replace(s, rung=one(s.rung), ranking=[one(f) for f in s.ranking],
                                  rivals=[one(f) for f in s.rivals]) for s in steps]
+    segments_left = segment_misfits(fitter, final)
+    if is_explained and not all(m.explained for m in segments_left):
+        is_explained = False  # explained on the whole, not on every segment
+        if verdict == "none":
+            verdict = "unexplained"
     return Diagnosis(data, sigma, source, data.radius_mm, [one(f) for f in ladder], steps[0].ranking,
                      first.not_detectable, verdict, confounded, suggestion, n_eff, notes, steps=steps,
                      alternatives=[one(f) for f in alternatives], n_given=len(add), fitter=fitter,
                      explained=is_explained, std_source=std_source, not_determined=not_determined,
-                     untried=untried, predictions=predictions, candidates=candidates, curves=list(curves),
-                     noises_mN=list(sigmas), noise_sources=list(sources))
+                     untried=untried, predictions=predictions, candidates=all_candidates, curves=list(curves),
+                     noises_mN=list(sigmas), noise_sources=list(sources), instrument=instrument,
+                     instrument_steps=instrument_steps, segments=segments_left, n_user=len(given))
 
 
 def check_known(fixed, priors, effects, n_curves: int) -> None:

@@ -1,0 +1,119 @@
+"""What a fitted model leaves on each segment of a curve: its misfit against the noise and its whiteness.
+
+A diagnosis calls a curve explained only when every segment is (:func:`segment_misfits`): the
+approach, the hold and the retract each to the noise (RMS within
+:data:`~.criteria.ALLOWANCE` of the noise and the model error) with a white residual. What is
+left is said per segment (:func:`segments_sentence`: "approach explained; retract 12x the
+noise, model too stiff from 27 to 31 um").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..inverse.residuals import analyse_residuals, describe_structure
+from ..measurement.scale import Quantity, Unit, UnitText, joined
+from .criteria import ALLOWANCE
+
+#: fewest points of a segment that is judged on its own
+MIN_POINTS = 5
+
+
+@dataclass(frozen=True)
+class SegmentMisfit:
+    """The misfit of one segment of one curve.
+
+    Attributes
+    ----------
+    curve : int
+        The curve (0 for a single curve).
+    kind : str
+        ``approach``, ``hold`` or ``retract``.
+    n : int
+        Points of the segment.
+    rms_mN, noise_mN : float
+        RMS residual and the noise it is judged against (noise and model error in quadrature), mN.
+    white : bool
+        The segment's residual passes the whiteness tests (runs, Ljung-Box, chi-square) alone.
+    where : list of dict
+        The ranges where the residual departs (:func:`~skin_indent.inverse.residuals.describe_structure`).
+    """
+
+    curve: int
+    kind: str
+    n: int
+    rms_mN: float
+    noise_mN: float
+    white: bool
+    where: list
+
+    @property
+    def ratio(self) -> float:
+        """RMS over the noise."""
+        return self.rms_mN / self.noise_mN
+
+    @property
+    def explained(self) -> bool:
+        """To the noise (within :data:`~.criteria.ALLOWANCE`) and white."""
+        return bool(self.white and self.rms_mN <= ALLOWANCE * self.noise_mN)
+
+    def sentence(self):
+        """``"approach explained"`` or ``"retract 12x the noise, model too stiff from a to b mm"``."""
+        if self.explained:
+            return f"{self.kind} explained ({self.ratio:.2g}x the noise, white)"
+        how = f"{self.ratio:.3g}x the noise" + ("" if self.white else ", structured")
+        ranges = [UnitText("model too {sign} from {a:.3g} to {b:.3g} {unit}", sign=r["sign"].split()[1],
+                           a=Quantity(r["from_mm"], "from_mm"), b=Quantity(r["to_mm"], "to_mm"), unit=Unit("mm"))
+                  for r in self.where]
+        return joined("", [f"{self.kind} {how}"] + ([", ", joined(", ", ranges)] if ranges else []))
+
+    def to_dict(self) -> dict:
+        return {"curve": self.curve, "segment": self.kind, "n_points": self.n, "rms_mN": self.rms_mN,
+                "noise_mN": self.noise_mN, "rms_over_noise": self.ratio, "white": self.white,
+                "explained": self.explained, "where": list(self.where)}
+
+
+def segment_misfits(fitter, rung) -> list[SegmentMisfit]:
+    """Every segment's misfit of ``rung`` (each curve of a sample in input order, segments in time order).
+
+    Parameters
+    ----------
+    fitter : Fitter
+        The curves, their noise, the error model (:meth:`~skin_indent.fitting.multistart.Fitter.sigma`).
+    rung : Rung
+        A fitted model of them.
+    """
+    r_all = np.asarray(rung.residual_mN, dtype=float)
+    s_all = fitter.sigma(rung.prediction_mN)
+    out = []
+    slices = fitter.data.slices if fitter.joint else [slice(0, fitter.data.n)]
+    for k, (c, sl, noise) in enumerate(zip(fitter.curves, slices, fitter.noises_mN)):
+        r, s = r_all[sl], s_all[sl]
+        for kind in ("approach", "hold", "retract"):
+            sel = c.kind == kind
+            if np.count_nonzero(sel) < MIN_POINTS:
+                continue
+            rs, ss = r[sel], s[sel]
+            level = float(np.sqrt(np.mean(ss**2)))
+            try:
+                a = analyse_residuals(rs * (noise / ss), noise, 0,
+                                      noise_dof=None if fitter.noise_dof is None else 0.35 * c.n)
+                white = bool(a.white)
+            except ValueError:
+                white = True
+            x = c.time_s[sel] if kind == "hold" and c.time_s is not None else c.depth_mm[sel]
+            where = [] if kind == "hold" else describe_structure(x, rs, float(np.median(ss)))
+            out.append(SegmentMisfit(k, kind, int(np.count_nonzero(sel)), float(np.sqrt(np.mean(rs**2))), level,
+                                     white, where))
+    return out
+
+
+def segments_sentence(misfits, joint: bool = False):
+    """What is left, per segment, in words ("approach explained; retract 12x the noise, ...")."""
+    parts = []
+    for m in misfits:
+        head = f"curve {m.curve + 1} " if joint else ""
+        parts.append(joined("", [head, m.sentence()]))
+    return joined("; ", parts)
