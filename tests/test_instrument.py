@@ -152,3 +152,22 @@ def test_the_same_curve_without_the_instrument_names_nothing(diagnosis_surfaces,
                  workers=2, in_loop=False, candidates=("stiffening", "viscoelastic", "adhesion", *INSTRUMENT))
     assert d.verdict == "none" and d.instrument == ()
     assert d.instrument_verdict == "none"
+
+
+def test_a_batch_row_and_its_table_hold_both_verdicts(diagnosis_surfaces, gallery_cache, tmp_path):
+    from skin_indent.runtime.context import Context
+    from skin_indent.diagnosis import diagnose_many
+    from skin_indent.measurement import save_csv
+    from skin_indent.report.batch_table import write_tsv
+
+    save_csv(synthetic_curve(), tmp_path / "drag.csv")
+    rows = diagnose_many([tmp_path / "drag.csv"], candidates=("stiffening", "adhesion", *INSTRUMENT), in_loop=False,
+                         context=Context(cache_dir=gallery_cache, workers=1), progress=False)
+    row = rows[0]
+    assert not row.error, row.error
+    assert (row.sample, row.instrument) == ("none", "drag, baselines")
+    assert row.segments.startswith("approach explained") and "retract explained" in row.segments
+    lines = [ln for ln in write_tsv(rows, tmp_path / "rows.tsv").read_text().splitlines() if not ln.startswith("#")]
+    header = lines[0].split("\t")
+    cells = dict(zip(header, lines[1].split("\t")))
+    assert cells["sample"] == "none" and cells["instrument"] == "drag, baselines"

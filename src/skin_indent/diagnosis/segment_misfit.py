@@ -36,9 +36,12 @@ class SegmentMisfit:
     rms_mN, noise_mN : float
         RMS residual and the noise it is judged against (noise and model error in quadrature), mN.
     white : bool
-        The segment's residual passes the whiteness tests (runs, Ljung-Box, chi-square) alone.
+        The segment's residual has no structure at the noise level, by the rule of
+        :func:`~.criteria.explained` for a whole curve: the runs and Ljung-Box tests pass at alpha, or
+        pass at alpha / 10 while no range departs from the model (its level is judged by the RMS).
     where : list of dict
-        The ranges where the residual departs (:func:`~skin_indent.inverse.residuals.describe_structure`).
+        The ranges where the residual departs (:func:`~skin_indent.inverse.residuals.describe_structure`):
+        depths (mm), or times (s) in a hold.
     """
 
     curve: int
@@ -64,9 +67,13 @@ class SegmentMisfit:
         if self.explained:
             return f"{self.kind} explained ({self.ratio:.2g}x the noise, white)"
         how = f"{self.ratio:.3g}x the noise" + ("" if self.white else ", structured")
-        ranges = [UnitText("model too {sign} from {a:.3g} to {b:.3g} {unit}", sign=r["sign"].split()[1],
-                           a=Quantity(r["from_mm"], "from_mm"), b=Quantity(r["to_mm"], "to_mm"), unit=Unit("mm"))
-                  for r in self.where]
+        if self.kind == "hold":
+            ranges = [f"model too {r['sign'].split()[1]} from {r['from_mm']:.3g} to {r['to_mm']:.3g} s"
+                      for r in self.where]
+        else:
+            ranges = [UnitText("model too {sign} from {a:.3g} to {b:.3g} {unit}", sign=r["sign"].split()[1],
+                               a=Quantity(r["from_mm"], "from_mm"), b=Quantity(r["to_mm"], "to_mm"),
+                               unit=Unit("mm")) for r in self.where]
         return joined("", [f"{self.kind} {how}"] + ([", ", joined(", ", ranges)] if ranges else []))
 
     def to_dict(self) -> dict:
@@ -97,14 +104,15 @@ def segment_misfits(fitter, rung) -> list[SegmentMisfit]:
                 continue
             rs, ss = r[sel], s[sel]
             level = float(np.sqrt(np.mean(ss**2)))
+            x = c.time_s[sel] if kind == "hold" and c.time_s is not None else c.depth_mm[sel]
+            where = describe_structure(x, rs, float(np.median(ss)))
             try:
                 a = analyse_residuals(rs * (noise / ss), noise, 0,
                                       noise_dof=None if fitter.noise_dof is None else 0.35 * c.n)
-                white = bool(a.white)
-            except ValueError:
+                p = min(a.runs_p, a.ljung_box_p)
+                white = bool(p > a.alpha or (p > a.alpha / 10 and not where))
+            except ValueError:  # too few points for the tests
                 white = True
-            x = c.time_s[sel] if kind == "hold" and c.time_s is not None else c.depth_mm[sel]
-            where = [] if kind == "hold" else describe_structure(x, rs, float(np.median(ss)))
             out.append(SegmentMisfit(k, kind, int(np.count_nonzero(sel)), float(np.sqrt(np.mean(rs**2))), level,
                                      white, where))
     return out
