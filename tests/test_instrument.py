@@ -4,8 +4,9 @@ instrument's, not the sample's.
 
 The synthetic curve is the independent finite-element curve of a clean neo-Hookean half-space (E = 8 kPa,
 nu = 0.45, R = 6.22 mm: src/skin_indent/data/neo-hooke_halfspace_E8kPa_nu0.45.csv), recorded from 0.3 mm
-before contact, approached at 0.1 mm/s and retracted at 0.3 mm/s (two speeds), with the lubrication and
-far-field drag, a tilted approach baseline (the virtual deflection), a drift during the retract and noise added.
+before contact, approached at 1 mm/s and retracted at 3 mm/s (two speeds), with the lubrication and
+far-field drag (within the drag's physical bounds: a liquid of 8 mPa s), a tilted approach baseline (the virtual
+deflection), a drift during the retract and noise added.
 """
 
 import math
@@ -75,11 +76,11 @@ def test_drag_effect_is_the_closed_form_less_what_the_baseline_took():
     h = d - c0
     expected = lubrication_force(eta * MPA_S, R_MM, v, np.maximum(-h, 0), GAP_FRACTION * R_MM) + c * v
     ev = Evaluation(d, t, h.copy(), R_MM, force_mN=np.zeros_like(d), kind=kind)
-    effect("drag").apply(ev, {"eta_mPa_s": eta, "drag_mN_s_per_mm": c})
+    effect("drag").apply(ev, {"eta_mPa_s": eta, "drag_N_s_per_m": c})
     assert np.allclose(ev.force_mN, expected)  # no baseline subtracted: the closed form itself
     flat = Baseline(0.0, 0.0, 0.01, 20, (0.0, 0.15), 0.0)
     ev = Evaluation(d, t, h.copy(), R_MM, force_mN=np.zeros_like(d), kind=kind, baseline=flat)
-    effect("drag").apply(ev, {"eta_mPa_s": 0.0, "drag_mN_s_per_mm": c})
+    effect("drag").apply(ev, {"eta_mPa_s": 0.0, "drag_N_s_per_m": c})
     far = (d < 0.1) & (np.abs(v) > 0)
     assert np.allclose(ev.force_mN[far & (kind == "approach")][2:], 0.0, atol=1e-12)
     assert np.allclose(ev.force_mN[far & (kind == "retract")][:-3], c * (-0.3 - 0.1))
@@ -108,10 +109,11 @@ def test_instrument_effects_are_registered_as_the_instruments():
     assert not any(e.instrument for n, e in EFFECTS.items() if n not in INSTRUMENT)
 
 
-def synthetic_curve(seed=7, eta_mPa_s=850.0, drag=0.5, drift=0.05, noise=0.02, va=0.1, vr=0.3):
-    """The clean finite-element half-space with two speeds, drag, per-segment baselines and noise."""
+def synthetic_curve(seed=7, eta_mPa_s=8.0, drag=5e-5, drift=0.3, noise=0.005, va=1.0, vr=3.0):
+    """The clean finite-element half-space with two speeds, drag (a liquid 8 times as viscous as water),
+    per-segment baselines and noise: approach at 1 mm/s, retract at 3 mm/s, 200 samples a second."""
     ref = np.loadtxt(REFERENCE, delimiter=",", skiprows=1)
-    c0, hmax, dt = 0.3, 0.6, 0.05
+    c0, hmax, dt = 0.3, 0.6, 0.005
     ta = np.arange(0, (c0 + hmax) / va, dt)
     tr = np.arange(dt, (c0 + hmax) / vr + dt / 2, dt)
     t = np.r_[ta, ta[-1] + tr]
@@ -137,7 +139,7 @@ def test_a_clean_half_space_with_drag_and_baselines_is_none_for_the_sample(diagn
     assert d.explained and all(m.explained for m in d.segments)
     assert [m.kind for m in d.segments] == ["approach", "retract"]
     p, sd = d.current.parameters, d.current.std
-    assert abs(p["eta_mPa_s"] - 850.0) < 3 * sd["eta_mPa_s"]
+    assert abs(p["eta_mPa_s"] - 8.0) < 3 * sd["eta_mPa_s"]
     assert abs(p["E_kPa"] - 8.0) < 3 * sd["E_kPa"]
     out = d.to_dict()
     assert out["sample"] == "none" and out["instrument"] == ["drag", "baselines"]

@@ -403,7 +403,8 @@ class Diagnosis:
         for step in self.instrument_steps:
             lines.append(f"the instrument, on top of {step.rung.model} (delta BIC > 0: better than that model):")
             for f in step.ranking:
-                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
+                added = "+".join(f.effects[len(step.rung.effects):])
+                lines.append(f"  +{added:<26} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
                              f"{'white' if f.white else 'structured'}")
             for k, v in step.not_detectable.items():
                 lines.append(f"  {k:<14} not detectable here: {shown_in(v, u)}")
@@ -488,7 +489,8 @@ class Diagnosis:
             "instrument": list(self.instrument),
             "instrument_verdict": self.instrument_verdict,
             "instrument_steps": [{"model": st.rung.model, "bic": st.rung.bic, "verdict": st.verdict,
-                                  "ranking": [candidate(st, f) for f in st.ranking],
+                                  "ranking": [{**candidate(st, f), "effect": "+".join(f.effects[len(st.rung.effects):])}
+                                              for f in st.ranking],
                                   "not_detectable": dict(st.not_detectable)} for st in self.instrument_steps],
             "segments": [m.to_dict() for m in self.segments],
             "provisional": self.provisional,

@@ -34,7 +34,10 @@ class SegmentMisfit:
     n : int
         Points of the segment.
     rms_mN, noise_mN : float
-        RMS residual and the noise it is judged against (noise and model error in quadrature), mN.
+        RMS residual and the curve's noise, mN.
+    level_mN : float
+        What the RMS is judged against: the noise and the model error in quadrature (RMS over the
+        segment's points), mN.
     white : bool
         The segment's residual has no structure at the noise level, by the rule of
         :func:`~.criteria.explained` for a whole curve: the runs and Ljung-Box tests pass at alpha, or
@@ -51,6 +54,7 @@ class SegmentMisfit:
     noise_mN: float
     white: bool
     where: list
+    level_mN: float = float("nan")
 
     @property
     def ratio(self) -> float:
@@ -59,8 +63,8 @@ class SegmentMisfit:
 
     @property
     def explained(self) -> bool:
-        """To the noise (within :data:`~.criteria.ALLOWANCE`) and white."""
-        return bool(self.white and self.rms_mN <= ALLOWANCE * self.noise_mN)
+        """To the noise and the model error (within :data:`~.criteria.ALLOWANCE`) and white."""
+        return bool(self.white and self.rms_mN <= ALLOWANCE * self.level_mN)
 
     def sentence(self):
         """``"approach explained"`` or ``"retract 12x the noise, model too stiff from a to b mm"``."""
@@ -78,7 +82,7 @@ class SegmentMisfit:
 
     def to_dict(self) -> dict:
         return {"curve": self.curve, "segment": self.kind, "n_points": self.n, "rms_mN": self.rms_mN,
-                "noise_mN": self.noise_mN, "rms_over_noise": self.ratio, "white": self.white,
+                "noise_mN": self.noise_mN, "noise_and_model_error_mN": self.level_mN, "rms_over_noise": self.ratio, "white": self.white,
                 "explained": self.explained, "where": list(self.where)}
 
 
@@ -113,8 +117,8 @@ def segment_misfits(fitter, rung) -> list[SegmentMisfit]:
                 white = bool(p > a.alpha or (p > a.alpha / 10 and not where))
             except ValueError:  # too few points for the tests
                 white = True
-            out.append(SegmentMisfit(k, kind, int(np.count_nonzero(sel)), float(np.sqrt(np.mean(rs**2))), level,
-                                     white, where))
+            out.append(SegmentMisfit(k, kind, int(np.count_nonzero(sel)), float(np.sqrt(np.mean(rs**2))), float(noise),
+                                     white, where, level))
     return out
 
 

@@ -194,54 +194,55 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
 
 
 def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
-    """The instrument's effects the curve shows, added greedily on top of ``add``.
+    """The instrument's effects the curve shows, fitted together on top of ``add``.
 
-    Each candidate of the instrument (:attr:`~skin_indent.effects.Effect.instrument`: drag, the
-    baselines) that can show in the data is fitted on top of the current model, with the sample's
-    parameters; the best is added while it lowers the BIC by more than :data:`STRONG` (at the
-    effective sample size of these fits). The parts out of contact, where the sample gives no
-    force, weigh as much as the rest: an effect of the instrument is named there first, so that no
-    effect of the sample is named to absorb it.
+    Every combination of the instrument's candidates (:attr:`~skin_indent.effects.Effect.instrument`:
+    drag, the baselines; at most 7 combinations of 3) that can show in the data is fitted on top of
+    the current model, with the sample's parameters: drag and a drift may each fail alone where
+    together they explain the parts out of contact. The combination of lowest BIC (at the effective
+    sample size of these fits) is named when it lowers the BIC by more than :data:`STRONG`. The parts
+    out of contact, where the sample gives no force, weigh as much as the rest: the instrument's
+    effects are named there first, so that no effect of the sample is named to absorb them.
 
     Returns
     -------
     key : tuple of str
-        The instrument's effects named, in the order they were added.
+        The instrument's effects named, in registration order.
     steps : list of Step
-        The examinations (the candidates ranked on top of each model).
+        The examination (every combination ranked on top of ``add``; none when no candidate shows).
     """
-    key: tuple = ()
-    steps: list = []
-    while True:
-        current = fitter.fit(add + key)
-        wanted, hidden = [], {}
-        for name in candidates:
-            if name in key:
-                continue
-            why = fitter.visible(effect(name))
-            if why is None:
-                wanted.append(name)
-            else:
-                hidden[name] = why
-        if not wanted:
-            break
-        fitted = fitter.fit_all([add + key + (n,) for n in wanted])
-        tried = [f for f in fitted.values() if not isinstance(f, ValueError)]
-        for n in wanted:
-            if isinstance(fitted[add + key + (n,)], ValueError):
-                hidden[n] = f"{NOT_FITTED}: {fitted[add + key + (n,)]}"
-        if not tried:
-            break
-        scores = Scores(fitter.data.n, _effective_size(fitter, [current, *tried]))
-        current = scores(current)
-        ranking = sorted((scores(f) for f in tried), key=lambda f: f.bic)
-        named = current.bic - ranking[0].bic > STRONG
-        steps.append(Step(current, ranking, hidden, ranking[0].effects[-1] if named else "none", []))
-        if not named:
-            break
-        key = key + (ranking[0].effects[-1],)
-        log.info("the instrument: %s named (BIC lower by %.1f)", key[-1], current.bic - ranking[0].bic)
-    return key, steps
+    import itertools
+
+    hidden, wanted = {}, []
+    for name in candidates:
+        why = fitter.visible(effect(name))
+        if why is None:
+            wanted.append(name)
+        else:
+            hidden[name] = why
+    if not wanted:
+        return (), []
+    combos = [c for k in range(1, len(wanted) + 1) for c in itertools.combinations(wanted, k)]
+    current = fitter.fit(add)
+    fitted = fitter.fit_all([add + c for c in combos])
+    tried = []
+    for c in combos:
+        f = fitted[add + c]
+        if isinstance(f, ValueError):
+            hidden["+".join(c)] = f"{NOT_FITTED}: {f}"
+        else:
+            tried.append(f)
+    if not tried:
+        return (), [Step(current, [], hidden, "none", [])]
+    scores = Scores(fitter.data.n, _effective_size(fitter, [current, *tried]))
+    current = scores(current)
+    ranking = sorted((scores(f) for f in tried), key=lambda f: f.bic)
+    best = ranking[0]
+    named = current.bic - best.bic > STRONG
+    key = tuple(best.effects[len(add):]) if named else ()
+    if named:
+        log.info("the instrument: %s named (BIC lower by %.1f)", ", ".join(key), current.bic - best.bic)
+    return key, [Step(current, ranking, hidden, "+".join(key) if named else "none", [])]
 
 
 def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
@@ -393,55 +394,48 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     instrument_candidates = tuple(c for c in candidates if effect(c).instrument)
     candidates = tuple(c for c in candidates if not effect(c).instrument)
     instrument, instrument_steps = _instrument(fitter, add, instrument_candidates)
-    add = add + instrument
-
-    # the first examination: the candidates on top of the given model; the effective sample size of
-    # the best fit there is that of every BIC of the diagnosis (each decision and each number reported)
-    fits = [fitter.fit(add)]
-    keys = [add + (name,) for name in _fittable(fitter, add, candidates)]
-    fits += [f for f in fitter.fit_all(keys).values() if not isinstance(f, ValueError)]
-    n_eff = _effective_size(fitter, fits)
-    scores = Scores(data.n, n_eff)
-    first = _examine(fitter, add, candidates, scores)
-    steps = [first]
-    examined = [first]  # every examination, in every explanation climbed
-    branches = []
-    if first.verdict != "none" and max_rungs > 0:
-        named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
-        heads = [first.ranking[0]] + named[:BEAM - 1]
-        for head in heads:
-            log.info("climbing from %s (at most %d more rung%s)", head.model, max_rungs - 1,
-                     "s" if max_rungs != 2 else "")
-            branch_steps = []
-            key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
-            branches.append((key, branch_steps))
-            examined += branch_steps
-    notes = []
-    alternatives = []
-    if branches:
-        finals = sorted(((scores(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
-        best_rung, key, more = finals[0]
-        steps += more
-        # another explanation is a set of effects that neither contains the chosen one nor is
-        # contained in it (the same set in another order, or one effect more, is the same explanation)
-        alternatives = [f for f, k, _ in finals[1:] if not (_contains(k, key) or _contains(key, k))]
-    else:
-        key = add
-    # a second look at the instrument, on top of the sample's model: an effect of the instrument that
-    # the sample's misfit hid (the near-wall drag standing in for relaxation in contact) is named now,
-    # and placed with the others, before the sample's effects
-    more, more_steps = _instrument(fitter, key, tuple(c for c in instrument_candidates if c not in key))
-    if more:
+    while True:
+        add = given + instrument
+        # the first examination: the candidates on top of the given model; the effective sample size of
+        # the best fit there is that of every BIC of the diagnosis (each decision and each number reported)
+        fits = [fitter.fit(add)]
+        keys = [add + (name,) for name in _fittable(fitter, add, candidates)]
+        fits += [f for f in fitter.fit_all(keys).values() if not isinstance(f, ValueError)]
+        n_eff = _effective_size(fitter, fits)
+        scores = Scores(data.n, n_eff)
+        first = _examine(fitter, add, candidates, scores)
+        steps = [first]
+        examined = [first]  # every examination, in every explanation climbed
+        branches = []
+        if first.verdict != "none" and max_rungs > 0:
+            named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
+            heads = [first.ranking[0]] + named[:BEAM - 1]
+            for head in heads:
+                log.info("climbing from %s (at most %d more rung%s)", head.model, max_rungs - 1,
+                         "s" if max_rungs != 2 else "")
+                branch_steps = []
+                key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
+                branches.append((key, branch_steps))
+                examined += branch_steps
+        notes = []
+        alternatives = []
+        if branches:
+            finals = sorted(((scores(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
+            best_rung, key, more = finals[0]
+            steps += more
+            # another explanation is a set of effects that neither contains the chosen one nor is
+            # contained in it (the same set in another order, or one effect more, is the same explanation)
+            alternatives = [f for f, k, _ in finals[1:] if not (_contains(k, key) or _contains(key, k))]
+        else:
+            key = add
+        # a second look at the instrument, on top of the sample's model: an effect of the instrument
+        # that the sample's misfit hid (the near-wall drag standing in for relaxation in contact) is
+        # named now, and the sample's climb starts again from the given model with the instrument's
+        # effects complete (what they explain may leave an effect of the sample unneeded)
+        more, more_steps = _instrument(fitter, key, tuple(c for c in instrument_candidates if c not in key))
+        if not more:
+            break
         instrument, instrument_steps = instrument + more, instrument_steps + more_steps
-        key = add + more + key[len(add):]
-        add = add + more
-        # the sample's model with the instrument's effects complete, examined again (a climb of the
-        # rungs left): what the instrument explains now may leave another effect of the sample unneeded
-        # or name one more
-        more_steps = []
-        key = _climb(fitter, key, candidates, scores, max(max_rungs - len(key[len(add):]), 1), more_steps)
-        steps += more_steps
-        examined += more_steps
     ladder = [scores(fitter.fit(key[:i])) for i in range(len(key) + 1)]
     missing = key[len(add):]
     verdict, confounded, suggestion = first.verdict, [], None

@@ -23,7 +23,7 @@ sample's parameters and named apart:
 
 ``drag`` (:mod:`.drag`)
     hydrodynamic drag on the probe: ``eta_mPa_s`` (lubrication near the surface),
-    ``drag_mN_s_per_mm`` (the cantilever's far field).
+    ``drag_N_s_per_m`` (the cantilever's far field).
 ``baselines``, ``hold_baseline`` (:mod:`.segment_baseline`)
     the baseline's drift during the retract and the hold, continuous in time:
     ``retract_drift_mN_per_s``, ``hold_drift_mN_per_s``.

@@ -47,6 +47,15 @@ from .base import FORCE, Effect, EffectParameter, Evaluation
 GAP_FRACTION = 0.05
 #: viscosity unit of the parameter: 1 mPa s = 1e-6 kPa s (kPa x mm^2 x mm/s / mm = mN)
 MPA_S = 1e-6
+#: the most viscous liquid a probe is taken to move in (mPa s): ten times water (0.7-1 mPa s at 20-37 C;
+#: culture media are water-like)
+ETA_MAX_MPA_S = 10.0
+#: the longest probe (cantilever) whose far-field drag is allowed (mm): 0.5 mm, the longest common cantilevers
+LENGTH_MAX_MM = 0.5
+#: the largest far-field coefficient (N s/m = mN s/mm): the Stokes drag of a sphere of radius
+#: :data:`LENGTH_MAX_MM` in a liquid of :data:`ETA_MAX_MPA_S`, 6 pi eta L (9.4e-5 N s/m; a 200 um
+#: cantilever in water has 1e-6 to 1e-5)
+DRAG_MAX_N_S_PER_M = 6.0 * math.pi * ETA_MAX_MPA_S * MPA_S * LENGTH_MAX_MM
 
 
 def probe_velocity(time_s: np.ndarray, depth_mm: np.ndarray, kind: np.ndarray | None) -> np.ndarray:
@@ -135,8 +144,8 @@ class Drag(Effect):
     parameters = (
         EffectParameter("eta_mPa_s", "mPa s", 0.0, math.inf, 0.0, False,
                         "viscosity of the liquid in the lubrication drag of the sphere near the surface"),
-        EffectParameter("drag_mN_s_per_mm", "mN s/mm", 0.0, math.inf, 0.0, False,
-                        "far-field drag coefficient of the cantilever (force per probe speed)"),
+        EffectParameter("drag_N_s_per_m", "N s/m", 0.0, math.inf, 0.0, False,
+                        "far-field drag coefficient of the cantilever (force per probe speed; = mN s/mm)"),
     )
     stage = FORCE
     linear_in_E = False
@@ -148,18 +157,22 @@ class Drag(Effect):
         return float(np.max(np.abs(probe_velocity(data.time_s, data.depth_mm, data.kind))))
 
     def fit_bounds(self, data, reach_mm=math.inf):
-        """Each term at most the peak force at the fastest speed (the near one at the bounding gap)."""
+        """Physical bounds, the same for every curve: the viscosity up to :data:`ETA_MAX_MPA_S`, the
+        far-field coefficient up to :data:`DRAG_MAX_N_S_PER_M`; and each term at most the peak force
+        at the fastest speed (the near one at the bounding gap). A force the data want beyond them
+        is not drag (tethers pulled on the retract, the sample's own relaxation)."""
         if data.time_s is None:
             raise ValueError("drag needs the measurement's time_s (the probe's velocity)")
         peak = float(np.max(np.abs(data.force_mN)))
         vmax = max(self._speeds(data), 1e-300)
         R = float(data.radius_mm)
         eta_hi = peak * GAP_FRACTION * R / (6.0 * math.pi * R**2 * vmax) / MPA_S
-        return {"eta_mPa_s": (0.0, eta_hi), "drag_mN_s_per_mm": (0.0, peak / vmax)}
+        return {"eta_mPa_s": (0.0, min(eta_hi, ETA_MAX_MPA_S)),
+                "drag_N_s_per_m": (0.0, min(peak / vmax, DRAG_MAX_N_S_PER_M))}
 
     def starts(self, data, bounds):
         return {"eta_mPa_s": (1e-3 * bounds["eta_mPa_s"][1],),
-                "drag_mN_s_per_mm": (1e-3 * bounds["drag_mN_s_per_mm"][1],)}
+                "drag_N_s_per_m": (1e-3 * bounds["drag_N_s_per_m"][1],)}
 
     def apply(self, ev: Evaluation, fit: dict) -> None:
         if ev.time_s is None:
@@ -170,7 +183,7 @@ class Drag(Effect):
         R = ev.radius_mm
         separation = np.maximum(-ev.h_mm, 0.0)  # 0 in contact: held at the contact value
         drag = (lubrication_force(float(fit["eta_mPa_s"]) * MPA_S, R, v, separation, GAP_FRACTION * R)
-                + float(fit["drag_mN_s_per_mm"]) * v)
+                + float(fit["drag_N_s_per_m"]) * v)
         ev.force_mN = ev.force_mN + drag - baseline_part(drag, ev.depth_mm, ev.kind, ev.baseline)
 
     def visible(self, data, noise_mN):

@@ -31,6 +31,8 @@ from .base import FORCE, Effect, EffectParameter, Evaluation
 
 #: fewest points of a segment whose baseline is fitted
 MIN_POINTS = 10
+#: the most a baseline drifts during one segment, as a fraction of the peak force
+MAX_DRIFT = 0.1
 
 
 class SegmentBaseline(Effect):
@@ -58,12 +60,14 @@ class SegmentBaseline(Effect):
         return (float(t[0]), float(t[-1])) if t.size else (math.inf, math.inf)
 
     def fit_bounds(self, data, reach_mm=math.inf):
-        """At most the peak force over the segment's duration, either way."""
+        """A drift of at most :data:`MAX_DRIFT` of the peak force over the segment, either way: a
+        baseline that moves more than that during one segment is not a baseline (an adhesive pull on
+        the retract, the sample's creep in a hold)."""
         if data.time_s is None:
             raise ValueError(f"{self.name} needs the measurement's time_s")
         a, b = self._span(data.time_s, data.kind)
         peak = float(np.max(np.abs(data.force_mN)))
-        rate = peak / max(b - a, 1e-9) if math.isfinite(a) else peak
+        rate = MAX_DRIFT * peak / max(b - a, 1e-9) if math.isfinite(a) else MAX_DRIFT * peak
         return {self._key: (-rate, rate)}
 
     def starts(self, data, bounds):
