@@ -142,9 +142,9 @@ class Drag(Effect):
     name = "drag"
     description = "hydrodynamic drag on the probe (instrument: near-wall lubrication and cantilever far field)"
     parameters = (
-        EffectParameter("eta_mPa_s", "mPa s", 0.0, math.inf, 0.0, False,
+        EffectParameter("eta_mPa_s", "mPa_s", 0.0, math.inf, 0.0, False,
                         "viscosity of the liquid in the lubrication drag of the sphere near the surface"),
-        EffectParameter("drag_N_s_per_m", "N s/m", 0.0, math.inf, 0.0, False,
+        EffectParameter("drag_N_s_per_m", "N_s/m", 0.0, math.inf, 0.0, False,
                         "far-field drag coefficient of the cantilever (force per probe speed; = mN s/mm)"),
     )
     stage = FORCE
