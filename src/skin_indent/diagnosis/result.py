@@ -407,7 +407,9 @@ class Diagnosis:
                 lines.append(f"  +{added:<26} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
                              f"{'white' if f.white else 'structured'}")
             for k, v in step.not_detectable.items():
-                lines.append(f"  {k:<14} not detectable here: {shown_in(v, u)}")
+                how = "not named" if "+" in k or "physical range" in v or v.startswith("not fitted") else \
+                    "not detectable here"
+                lines.append(f"  {k:<14} {how}: {shown_in(v, u)}")
         if self.segments:
             lines.append(f"per segment, {self.current.model}:")
         for m in self.segments:

@@ -2,6 +2,14 @@ r"""Diagnose a measured curve: fit, find where the model fails, name the missing
 
 The workflow of :func:`diagnose`:
 
+0. **The instrument.** The effects of the measurement (:attr:`~skin_indent.effects.Effect.instrument`:
+   ``drag`` on the probe, the ``baselines`` of the segments) that can show in the curve are fitted
+   together with the sample's parameters, every combination of them, and the best is kept when it
+   lowers the BIC by more than :data:`STRONG`; they stay in every model below and are named apart
+   (:attr:`Diagnosis.instrument`), never in the sample's verdict. After the sample's climb the
+   instrument is looked at again on top of its model; when that names more, the sample's climb
+   starts again with the instrument complete. A curve that the instrument's effects alone explain
+   is ``none`` for the sample.
 1. **Compare.** Fit the current model (the neo-Hookean half-space, plus effects
    already added with ``add``) to every segment of the curve (loading, hold,
    unloading: hysteresis, creep and pull-off are evidence).
@@ -31,7 +39,9 @@ The workflow of :func:`diagnose`:
 4. **Add it.** ``add`` refits with the named effects and reports the ladder: RMS,
    BIC and whiteness at every rung.
 5. **Say what was not tried.** When nothing named is missing, the verdict is ``none``
-   if the model explains the curve to the noise and ``unexplained`` if it does not.
+   if the model explains the curve to the noise and ``unexplained`` if it does not. The curve
+   is explained only when every segment is (approach, hold, retract: each to the noise and
+   white, :mod:`.segment_misfit`); what is left is said per segment.
    Combinations that were not fitted (no response surface covers them and the
    finite-element model in the loop is switched off, a fit that failed, a rung the climb
    reached at ``max_rungs`` and did not examine) are listed in ``untried``, and the
@@ -193,6 +203,15 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
     return out
 
 
+def _face(rung: Rung, name: str) -> float:
+    """The face of its range the fit parameter ``name`` of ``rung`` ended on (the nearer one)."""
+    model = rung.bound_model
+    i = model.parameter_names.index(name)
+    lo, hi = float(model.bounds[0][i]), float(model.bounds[1][i])
+    v = float(rung.x[i])
+    return lo if abs(v - lo) <= abs(hi - v) else hi
+
+
 def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
     """The instrument's effects the curve shows, fitted together on top of ``add``.
 
@@ -230,8 +249,14 @@ def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
         f = fitted[add + c]
         if isinstance(f, ValueError):
             hidden["+".join(c)] = f"{NOT_FITTED}: {f}"
-        else:
-            tried.append(f)
+            continue
+        own = {k for n in c for k in effect(n).fit_names}
+        pinned = [k for k in f.at_bounds if split_name(k)[0] in own and _face(f, k) != 0.0]  # 0: off
+        if pinned:  # at the edge of its physical range: it stands in for something else (tethers, creep)
+            hidden["+".join(c)] = (f"{', '.join(pinned)} at the edge of its physical range: the instrument "
+                                   "cannot give that force, something else does")
+            continue
+        tried.append(f)
     if not tried:
         return (), [Step(current, [], hidden, "none", [])]
     scores = Scores(fitter.data.n, _effective_size(fitter, [current, *tried]))
