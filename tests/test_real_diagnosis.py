@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from _data import DATA
 
-from skin_indent.effects import INSTRUMENT
+from skin_indent.effects import INSTRUMENT, effect
 from skin_indent.measurement import load_csv
 
 REAL = DATA / "real-data"
@@ -45,19 +45,27 @@ def _out_of_contact_retract_rms(d, rung):
 @pytest.mark.parametrize("name", sorted(RADII))
 def test_the_instrument_is_named_as_the_instruments(diagnoses, name):
     d = diagnoses[name]
-    assert "drag" in d.instrument  # the retract's speed is not the approach's (or its sign): drag shows
+    if name.startswith("jpk_force-save"):
+        assert "drag" in d.instrument  # retract at 25 um/s against 10 um/s in: drag shows
     assert not set(d.missing) & set(INSTRUMENT)  # the sample's verdict never holds the instrument
+    # no effect of the instrument named at the far face of its physical range (standing in for the sample)
+    own = {k for n in d.instrument for k in effect(n).fit_names}
+    for k in d.current.at_bounds:
+        if k in own:
+            assert d.current.fit_parameters[k] == pytest.approx(0.0, abs=1e-12), k
     assert all(e in d.current.effects for e in d.instrument)
     out = d.to_dict()
     assert out["sample"] == d.verdict and out["instrument"] == list(d.instrument)
     assert f"sample: {d.verdict}; instrument: {', '.join(d.instrument)}" in d.report()
 
 
-@pytest.mark.parametrize("name", sorted(RADII))
-def test_the_retract_past_pull_off_belongs_to_the_instrument(diagnoses, name):
-    """Past the pull-off the sample gives no force: the instrument's effects take at least half of the
-    half-space's misfit there (RMS), where the half-space alone leaves the drag's offset."""
-    d = diagnoses[name]
+def test_the_retract_past_pull_off_belongs_to_the_instrument(diagnoses):
+    """Past the pull-off the sample gives no force: on the force-save curve (no tethers: its retract lies
+    0.1-0.3 nN below the approach from drag, README) the instrument's effects take at least half of the
+    half-space's misfit there (RMS). The creep curves pull tethers for 4-15 um past contact, which no
+    effect of the instrument may take (its parameters stop at their physical bounds): their retract is
+    left unexplained, and said so (test_what_is_left_is_said_per_segment)."""
+    d = diagnoses["jpk_force-save-example_R18.64um.csv"]
     assert _out_of_contact_retract_rms(d, d.current) < 0.5 * _out_of_contact_retract_rms(d, d.base)
 
 
