@@ -203,13 +203,35 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
     return out
 
 
-def _face(rung: Rung, name: str) -> float:
-    """The face of its range the fit parameter ``name`` of ``rung`` ended on (the nearer one)."""
+#: a parameter of the instrument within this fraction of its range from a face ends on it
+AT_LIMIT = 1e-3
+
+
+def at_physical_range(rung: Rung, effects) -> list[str]:
+    """The fit parameters of the instrument's ``effects`` in ``rung`` that end on the far face of their
+    physical range (within :data:`AT_LIMIT` of it; the face at 0, their off value, does not count): an
+    effect of the instrument there stands in for a force the instrument cannot give (tethers pulled on
+    the retract, the sample's creep in a hold).
+
+    Parameters
+    ----------
+    rung : Rung
+        A fitted model (its ``bound_model`` and ``x``).
+    effects : iterable of str
+        Effects of the instrument in it.
+    """
     model = rung.bound_model
-    i = model.parameter_names.index(name)
-    lo, hi = float(model.bounds[0][i]), float(model.bounds[1][i])
-    v = float(rung.x[i])
-    return lo if abs(v - lo) <= abs(hi - v) else hi
+    own = {k for n in effects for k in effect(n).fit_names}
+    out = []
+    for i, k in enumerate(model.parameter_names):
+        if split_name(k)[0] not in own:
+            continue
+        lo, hi = float(model.bounds[0][i]), float(model.bounds[1][i])
+        v, span = float(rung.x[i]), hi - lo
+        for face in (lo, hi):
+            if face != 0.0 and math.isfinite(face) and abs(v - face) <= AT_LIMIT * span:
+                out.append(k)
+    return out
 
 
 def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
@@ -250,8 +272,7 @@ def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
         if isinstance(f, ValueError):
             hidden["+".join(c)] = f"{NOT_FITTED}: {f}"
             continue
-        own = {k for n in c for k in effect(n).fit_names}
-        pinned = [k for k in f.at_bounds if split_name(k)[0] in own and _face(f, k) != 0.0]  # 0: off
+        pinned = at_physical_range(f, c)
         if pinned:  # at the edge of its physical range: it stands in for something else (tethers, creep)
             hidden["+".join(c)] = (f"{', '.join(pinned)} at the edge of its physical range: the instrument "
                                    "cannot give that force, something else does")
@@ -507,6 +528,11 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     # fewer points in contact than the last rung's parameters need to be judged (5 each): said in a note
     notes += points_flags(contact_points(data), final.n_free)
     notes += interpolation_flags(final.bound_model, final.x)  # the last rung's surface, where it is not exact
+    pinned = at_physical_range(final, instrument)
+    if pinned:  # named inside its range, pushed to its edge once the sample's effects joined it
+        notes.append(f"{', '.join(pinned)} of the instrument end(s) at the edge of the physical range in "
+                     f"{final.model}: the instrument cannot give that force; something the model does not hold "
+                     "(tethers, the sample's creep) is taken by it")
     if std != final.std:
         scores.rungs[key] = dataclasses.replace(final, std=std)
 
