@@ -440,6 +440,8 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     instrument_candidates = tuple(c for c in candidates if effect(c).instrument)
     candidates = tuple(c for c in candidates if not effect(c).instrument)
     instrument, instrument_steps = _instrument(fitter, add, instrument_candidates)
+    excluded: set = set()  # the instrument's effects dropped at the edge of their physical range
+    dropped_notes = []
     while True:
         add = given + instrument
         # the first examination: the candidates on top of the given model; the effective sample size of
@@ -463,7 +465,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
                 key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
                 branches.append((key, branch_steps))
                 examined += branch_steps
-        notes = []
+        notes = list(dropped_notes)
         alternatives = []
         if branches:
             finals = sorted(((scores(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
@@ -478,7 +480,19 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         # that the sample's misfit hid (the near-wall drag standing in for relaxation in contact) is
         # named now, and the sample's climb starts again from the given model with the instrument's
         # effects complete (what they explain may leave an effect of the sample unneeded)
-        more, more_steps = _instrument(fitter, key, tuple(c for c in instrument_candidates if c not in key))
+        # an effect of the instrument pushed to the edge of its physical range by the sample's effects
+        # stands in for a force the instrument cannot give: dropped, and the climb made again without it
+        pinned = {split_name(k)[0] for k in at_physical_range(fitter.fit(key), instrument)}
+        drop = tuple(n for n in instrument if set(effect(n).fit_names) & pinned)
+        if drop:
+            excluded |= set(drop)
+            instrument = tuple(n for n in instrument if n not in drop)
+            dropped_notes.append(f"{', '.join(drop)} not named for the instrument: in {fitter.fit(key).model} "
+                                 f"{', '.join(sorted(pinned))} end(s) at the edge of the physical range (a force "
+                                 "the instrument cannot give: tethers, the sample's creep)")
+            continue
+        more, more_steps = _instrument(fitter, key, tuple(c for c in instrument_candidates
+                                                          if c not in key and c not in excluded))
         if not more:
             break
         instrument, instrument_steps = instrument + more, instrument_steps + more_steps
