@@ -13,7 +13,8 @@ from skin_indent.protocol import Protocol
 def test_vocabulary_names_and_units():
 
     # one vocabulary everywhere (API, CLI, JSON, reports), in the order of the issue
-    assert tuple(EFFECTS) == ("layer", "stiffening", "viscoelastic", "friction", "adhesion", "offset", "viscoelastic_powerlaw")
+    assert tuple(EFFECTS) == ("layer", "stiffening", "viscoelastic", "friction", "adhesion", "offset",
+                            "viscoelastic_powerlaw", "drag", "baselines", "hold_baseline")  # then the instrument's (issue 37)
     for e in EFFECTS.values():
         for p in e.parameters:
             assert p.unit and p.lower <= (p.off if p.off is not None else p.lower) <= p.upper

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, fields
 from ..effects import EFFECTS, WEIGHED, effect, instances
 from ..fitting.model_fit import prepare_curve
 from ..measurement import SEGMENTS
+from ..measurement.scale import PACKAGE_UNITS
 from ..measurement.curve_files import CurveLocation, expand_paths, read_curves
 from ..runtime.batch import BatchRows, one_line, run_tasks
 from ..runtime.context import context_of
@@ -64,6 +65,14 @@ class DiagnosisRow(CurveLocation):
     verdict : str
         What the given model misses: an effect (``"layer"``), several (``"offset+layer"``),
         ``"none"``, ``"unexplained"`` or ``"ambiguous"`` (:attr:`Diagnosis.verdict`).
+    sample : str
+        The sample's verdict (the same as ``verdict``: the instrument's effects are never in it).
+    instrument : str
+        The instrument's effects named (``"drag, baselines"``) or ``"none"``
+        (:attr:`Diagnosis.instrument_verdict`).
+    segments : str
+        What the final model leaves on each segment, in words (:meth:`Diagnosis.segments_sentence`,
+        package units).
     provisional : bool or None
         Combinations were left untried (``untried``): the verdict holds for what was fitted.
     explained : bool or None
@@ -108,6 +117,9 @@ class DiagnosisRow(CurveLocation):
     n_points: int = 0
     noise_mN: float = math.nan
     verdict: str = ""
+    sample: str = ""
+    instrument: str = ""
+    segments: str = ""
     provisional: bool | None = None
     explained: bool | None = None
     model: str = ""
@@ -193,14 +205,18 @@ def portable(diagnosis):
         diagnosis, fitter=None, ladder=[rung(r) for r in diagnosis.ladder],
         ranking=[rung(r) for r in diagnosis.ranking], alternatives=[rung(r) for r in diagnosis.alternatives],
         steps=[dataclasses.replace(s, rung=rung(s.rung), ranking=[rung(r) for r in s.ranking],
-                                   rivals=[rung(r) for r in s.rivals]) for s in diagnosis.steps])
+                                   rivals=[rung(r) for r in s.rivals]) for s in diagnosis.steps],
+        instrument_steps=[dataclasses.replace(s, rung=rung(s.rung), ranking=[rung(r) for r in s.ranking])
+                          for s in diagnosis.instrument_steps])
 
 
 def _numbers(d) -> dict:
     """The fields of a :class:`DiagnosisRow` from a diagnosis."""
     cur = d.current
     return {"radius_mm": float(d.radius_mm), "n_points": int(d.data.n), "noise_mN": float(d.noise_mN),
-            "verdict": d.verdict, "provisional": bool(d.provisional), "explained": bool(d.explained),
+            "verdict": d.verdict, "sample": d.verdict, "instrument": d.instrument_verdict,
+            "segments": str(d.segments_sentence(PACKAGE_UNITS)),
+            "provisional": bool(d.provisional), "explained": bool(d.explained),
             "model": cur.model, "E_kPa": float(cur.parameters.get("E_kPa", math.nan)),
             "E_std_kPa": float(cur.std.get("E_kPa", math.nan)), "rms_mN": float(cur.rms_mN),
             "misfit": float(cur.rms_mN / d.noise_mN), "white": bool(cur.white), "base_rms_mN": float(d.base.rms_mN),

@@ -132,6 +132,37 @@ class Diagnosis:
     curves: list = field(default_factory=list, repr=False)
     noises_mN: list = field(default_factory=list)
     noise_sources: list = field(default_factory=list)
+    #: the instrument's effects named (drag, baselines: :attr:`~skin_indent.effects.Effect.instrument`), in
+    #: the order they were added; they are in every rung from ``ladder[n_user + 1]`` on, and never in the
+    #: sample's verdict
+    instrument: tuple = ()
+    #: the examinations that named them (:class:`Step`)
+    instrument_steps: list = field(default_factory=list)
+    #: what the last rung leaves on each segment of each curve (:class:`~.segment_misfit.SegmentMisfit`)
+    segments: list = field(default_factory=list)
+    #: effects the user added by hand (``add``); ``n_given`` counts the instrument's too
+    n_user: int | None = None
+
+    @property
+    def sample_verdict(self) -> str:
+        """What the sample misses: :attr:`verdict` (the instrument's effects are never in it)."""
+        return self.verdict
+
+    @property
+    def instrument_verdict(self) -> str:
+        """The instrument's effects named, ``"drag, baselines"``, or ``"none"``."""
+        return ", ".join(self.instrument) if self.instrument else "none"
+
+    def verdicts(self) -> str:
+        """``"sample: viscoelastic; instrument: drag, baselines"``."""
+        return f"sample: {self.verdict}; instrument: {self.instrument_verdict}"
+
+    def segments_sentence(self, units: DisplayUnits | None = None) -> str:
+        """What the last rung leaves on each segment (``"approach explained; retract 12x the noise ..."``)."""
+        from .segment_misfit import segments_sentence
+
+        return shown_in(segments_sentence(self.segments, self.joint), self.units if units is None else units) \
+            if self.segments else ""
 
     @property
     def current(self) -> Rung:
@@ -210,6 +241,11 @@ class Diagnosis:
         """
         u = self.units if units is None else units
         text = self._verdict_sentence(u)
+        if self.instrument:
+            text += (f" The instrument's effects ({self.instrument_verdict}) are in every model from "
+                     f"{self.ladder[self.n_given].model} on; they are not the sample's.")
+        if self.segments and not self.explained:
+            text += f" Per segment: {self.segments_sentence(u)}."
         for reason in self.not_determined.values():
             text += f" {shown_in(reason, u)}."
         return text
@@ -364,7 +400,24 @@ class Diagnosis:
                     lines.append(f"  +{k:<13} {shown_in(v, u)}")
                 elif i == 0:  # what the data cannot show does not change up the ladder
                     lines.append(f"  {k:<14} not detectable here: {shown_in(v, u)}")
+        for step in self.instrument_steps:
+            lines.append(f"the instrument, on top of {step.rung.model} (delta BIC > 0: better than that model):")
+            for f in step.ranking:
+                added = "+".join(f.effects[len(step.rung.effects):])
+                lines.append(f"  +{added:<26} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
+                             f"{'white' if f.white else 'structured'}")
+            for k, v in step.not_detectable.items():
+                how = "not named" if "+" in k or "physical range" in v or v.startswith("not fitted") else \
+                    "not detectable here"
+                lines.append(f"  {k:<14} {how}: {shown_in(v, u)}")
+        if self.segments:
+            lines.append(f"per segment, {self.current.model}:")
+        for m in self.segments:
+            lines.append(f"  segment {('curve %d ' % (m.curve + 1)) if self.joint else ''}{m.kind:<8} "
+                         f"RMS {m.rms_mN * u.per_mN:.4g} {F} = {m.ratio:.3g}x the noise, "
+                         f"{'white' if m.white else 'structured'}{'' if not m.explained else ' (explained)'}")
         lines.append(f"verdict: {self.verdict}" + (" (provisional)" if self.provisional else ""))
+        lines.append(self.verdicts())
         if self.provisional:
             lines.append(f"provisional: {self._untried_clause()}")
         lines.append(self.sentence(u))
@@ -434,6 +487,14 @@ class Diagnosis:
             "not_detectable": dict(self.not_detectable),
             "candidates": list(EFFECTS) if self.candidates is None else list(self.candidates),
             "verdict": self.verdict,
+            "sample": self.verdict,
+            "instrument": list(self.instrument),
+            "instrument_verdict": self.instrument_verdict,
+            "instrument_steps": [{"model": st.rung.model, "bic": st.rung.bic, "verdict": st.verdict,
+                                  "ranking": [{**candidate(st, f), "effect": "+".join(f.effects[len(st.rung.effects):])}
+                                              for f in st.ranking],
+                                  "not_detectable": dict(st.not_detectable)} for st in self.instrument_steps],
+            "segments": [m.to_dict() for m in self.segments],
             "provisional": self.provisional,
             "untried": list(self.untried),
             "untried_reasons": dict(self.untried),

@@ -2,6 +2,14 @@ r"""Diagnose a measured curve: fit, find where the model fails, name the missing
 
 The workflow of :func:`diagnose`:
 
+0. **The instrument.** The effects of the measurement (:attr:`~skin_indent.effects.Effect.instrument`:
+   ``drag`` on the probe, the ``baselines`` of the segments) that can show in the curve are fitted
+   together with the sample's parameters, every combination of them, and the best is kept when it
+   lowers the BIC by more than :data:`STRONG`; they stay in every model below and are named apart
+   (:attr:`Diagnosis.instrument`), never in the sample's verdict. After the sample's climb the
+   instrument is looked at again on top of its model; when that names more, the sample's climb
+   starts again with the instrument complete. A curve that the instrument's effects alone explain
+   is ``none`` for the sample.
 1. **Compare.** Fit the current model (the neo-Hookean half-space, plus effects
    already added with ``add``) to every segment of the curve (loading, hold,
    unloading: hysteresis, creep and pull-off are evidence).
@@ -31,7 +39,9 @@ The workflow of :func:`diagnose`:
 4. **Add it.** ``add`` refits with the named effects and reports the ladder: RMS,
    BIC and whiteness at every rung.
 5. **Say what was not tried.** When nothing named is missing, the verdict is ``none``
-   if the model explains the curve to the noise and ``unexplained`` if it does not.
+   if the model explains the curve to the noise and ``unexplained`` if it does not. The curve
+   is explained only when every segment is (approach, hold, retract: each to the noise and
+   white, :mod:`.segment_misfit`); what is left is said per segment.
    Combinations that were not fitted (no response surface covers them and the
    finite-element model in the loop is switched off, a fit that failed, a rung the climb
    reached at ``max_rungs`` and did not examine) are listed in ``untried``, and the
@@ -75,6 +85,7 @@ from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggest
 from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RIVAL, STRONG, Scores, explained,
                        settled)
 from .result import Diagnosis, Step
+from .segment_misfit import segment_misfits
 from ..inverse.residuals import effective_sample_size
 from ..runtime.context import context_of
 from ..runtime.provenance import records_call
@@ -194,6 +205,94 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
                            f"the climb stopped at max_rungs = {max_rungs} before examining "
                            f"{'+'.join(unexamined) or 'the given model'}")
     return out
+
+
+#: a parameter of the instrument within this fraction of its range from a face ends on it
+AT_LIMIT = 1e-3
+
+
+def at_physical_range(rung: Rung, effects) -> list[str]:
+    """The fit parameters of the instrument's ``effects`` in ``rung`` that end on the far face of their
+    physical range (within :data:`AT_LIMIT` of it; the face at 0, their off value, does not count): an
+    effect of the instrument there stands in for a force the instrument cannot give (tethers pulled on
+    the retract, the sample's creep in a hold).
+
+    Parameters
+    ----------
+    rung : Rung
+        A fitted model (its ``bound_model`` and ``x``).
+    effects : iterable of str
+        Effects of the instrument in it.
+    """
+    model = rung.bound_model
+    own = {k for n in effects for k in effect(n).fit_names}
+    out = []
+    for i, k in enumerate(model.parameter_names):
+        if split_name(k)[0] not in own:
+            continue
+        lo, hi = float(model.bounds[0][i]), float(model.bounds[1][i])
+        v, span = float(rung.x[i]), hi - lo
+        for face in (lo, hi):
+            if face != 0.0 and math.isfinite(face) and abs(v - face) <= AT_LIMIT * span:
+                out.append(k)
+    return out
+
+
+def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
+    """The instrument's effects the curve shows, fitted together on top of ``add``.
+
+    Every combination of the instrument's candidates (:attr:`~skin_indent.effects.Effect.instrument`:
+    drag, the baselines; at most 7 combinations of 3) that can show in the data is fitted on top of
+    the current model, with the sample's parameters: drag and a drift may each fail alone where
+    together they explain the parts out of contact. The combination of lowest BIC (at the effective
+    sample size of these fits) is named when it lowers the BIC by more than :data:`STRONG`. The parts
+    out of contact, where the sample gives no force, weigh as much as the rest: the instrument's
+    effects are named there first, so that no effect of the sample is named to absorb them.
+
+    Returns
+    -------
+    key : tuple of str
+        The instrument's effects named, in registration order.
+    steps : list of Step
+        The examination (every combination ranked on top of ``add``; none when no candidate shows).
+    """
+    import itertools
+
+    hidden, wanted = {}, []
+    for name in candidates:
+        why = fitter.visible(effect(name))
+        if why is None:
+            wanted.append(name)
+        else:
+            hidden[name] = why
+    if not wanted:
+        return (), []
+    combos = [c for k in range(1, len(wanted) + 1) for c in itertools.combinations(wanted, k)]
+    current = fitter.fit(add)
+    fitted = fitter.fit_all([add + c for c in combos])
+    tried = []
+    for c in combos:
+        f = fitted[add + c]
+        if isinstance(f, ValueError):
+            hidden["+".join(c)] = f"{NOT_FITTED}: {f}"
+            continue
+        pinned = at_physical_range(f, c)
+        if pinned:  # at the edge of its physical range: it stands in for something else (tethers, creep)
+            hidden["+".join(c)] = (f"{', '.join(pinned)} at the edge of its physical range: the instrument "
+                                   "cannot give that force, something else does")
+            continue
+        tried.append(f)
+    if not tried:
+        return (), [Step(current, [], hidden, "none", [])]
+    scores = Scores(fitter.data.n, _effective_size(fitter, [current, *tried]))
+    current = scores(current)
+    ranking = sorted((scores(f) for f in tried), key=lambda f: f.bic)
+    best = ranking[0]
+    named = current.bic - best.bic > STRONG
+    key = tuple(best.effects[len(add):]) if named else ()
+    if named:
+        log.info("the instrument: %s named (BIC lower by %.1f)", ", ".join(key), current.bic - best.bic)
+    return key, [Step(current, ranking, hidden, "+".join(key) if named else "none", [])]
 
 
 def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
@@ -326,6 +425,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         effect(name)  # one line naming the vocabulary for an unknown name
     add = tuple(effect(a).name for a in add)
     candidates = tuple(effect(c).name for c in candidates)
+    all_candidates = candidates
     instances(add)  # one line for an effect given twice that cannot repeat
     for name in add:
         if effect(name).stage == WEIGHED:
@@ -341,7 +441,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         sigma, source = curve_noise(data, noise_mN)
         curves, sigmas, sources = [data], [sigma], [source]
     check_scale(data)
-    fixed, notes = scale_conventions(curves, fixed, priors, free)
+    fixed, scale_notes = scale_conventions(curves, fixed, priors, free)
     check_known(fixed, priors, (*candidates, *add), len(curves))
     fitter = Fitter(curves, sigmas, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
@@ -350,38 +450,68 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
                  "loop %s", c.n, c.source, ", ".join(segments), s, c.radius_mm, mesh, "allowed" if in_loop else "off")
     for i in range(len(add) + 1):
         fitter.fit(add[:i])
-
-    # the first examination: the candidates on top of the given model; the effective sample size of
-    # the best fit there is that of every BIC of the diagnosis (each decision and each number reported)
-    fits = [fitter.fit(add)]
-    keys = [add + (name,) for name in _fittable(fitter, add, candidates)]
-    fits += [f for f in fitter.fit_all(keys).values() if not isinstance(f, ValueError)]
-    n_eff = _effective_size(fitter, fits)
-    scores = Scores(data.n, n_eff)
-    first = _examine(fitter, add, candidates, scores)
-    steps = [first]
-    examined = [first]  # every examination, in every explanation climbed
-    branches = []
-    if first.verdict != "none" and max_rungs > 0:
-        named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
-        heads = [first.ranking[0]] + named[:BEAM - 1]
-        for head in heads:
-            log.info("climbing from %s (at most %d more rung%s)", head.model, max_rungs - 1,
-                     "s" if max_rungs != 2 else "")
-            branch_steps = []
-            key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
-            branches.append((key, branch_steps))
-            examined += branch_steps
-    alternatives = []
-    if branches:
-        finals = sorted(((scores(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
-        best_rung, key, more = finals[0]
-        steps += more
-        # another explanation is a set of effects that neither contains the chosen one nor is
-        # contained in it (the same set in another order, or one effect more, is the same explanation)
-        alternatives = [f for f, k, _ in finals[1:] if not (_contains(k, key) or _contains(key, k))]
-    else:
-        key = add
+    # the instrument first: drag and the baselines, which the parts out of contact determine, are
+    # fitted with the sample's parameters and stay in every model the sample's climb fits
+    given = add
+    instrument_candidates = tuple(c for c in candidates if effect(c).instrument)
+    candidates = tuple(c for c in candidates if not effect(c).instrument)
+    instrument, instrument_steps = _instrument(fitter, add, instrument_candidates)
+    excluded: set = set()  # the instrument's effects dropped at the edge of their physical range
+    dropped_notes = []
+    while True:
+        add = given + instrument
+        # the first examination: the candidates on top of the given model; the effective sample size of
+        # the best fit there is that of every BIC of the diagnosis (each decision and each number reported)
+        fits = [fitter.fit(add)]
+        keys = [add + (name,) for name in _fittable(fitter, add, candidates)]
+        fits += [f for f in fitter.fit_all(keys).values() if not isinstance(f, ValueError)]
+        n_eff = _effective_size(fitter, fits)
+        scores = Scores(data.n, n_eff)
+        first = _examine(fitter, add, candidates, scores)
+        steps = [first]
+        examined = [first]  # every examination, in every explanation climbed
+        branches = []
+        if first.verdict != "none" and max_rungs > 0:
+            named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
+            heads = [first.ranking[0]] + named[:BEAM - 1]
+            for head in heads:
+                log.info("climbing from %s (at most %d more rung%s)", head.model, max_rungs - 1,
+                         "s" if max_rungs != 2 else "")
+                branch_steps = []
+                key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
+                branches.append((key, branch_steps))
+                examined += branch_steps
+        notes = [*scale_notes, *dropped_notes]
+        alternatives = []
+        if branches:
+            finals = sorted(((scores(fitter.fit(k)), k, st) for k, st in branches), key=lambda t: t[0].bic)
+            best_rung, key, more = finals[0]
+            steps += more
+            # another explanation is a set of effects that neither contains the chosen one nor is
+            # contained in it (the same set in another order, or one effect more, is the same explanation)
+            alternatives = [f for f, k, _ in finals[1:] if not (_contains(k, key) or _contains(key, k))]
+        else:
+            key = add
+        # a second look at the instrument, on top of the sample's model: an effect of the instrument
+        # that the sample's misfit hid (the near-wall drag standing in for relaxation in contact) is
+        # named now, and the sample's climb starts again from the given model with the instrument's
+        # effects complete (what they explain may leave an effect of the sample unneeded)
+        # an effect of the instrument pushed to the edge of its physical range by the sample's effects
+        # stands in for a force the instrument cannot give: dropped, and the climb made again without it
+        pinned = {split_name(k)[0] for k in at_physical_range(fitter.fit(key), instrument)}
+        drop = tuple(n for n in instrument if set(effect(n).fit_names) & pinned)
+        if drop:
+            excluded |= set(drop)
+            instrument = tuple(n for n in instrument if n not in drop)
+            dropped_notes.append(f"{', '.join(drop)} not named for the instrument: in {fitter.fit(key).model} "
+                                 f"{', '.join(sorted(pinned))} end(s) at the edge of the physical range (a force "
+                                 "the instrument cannot give: tethers, the sample's creep)")
+            continue
+        more, more_steps = _instrument(fitter, key, tuple(c for c in instrument_candidates
+                                                          if c not in key and c not in excluded))
+        if not more:
+            break
+        instrument, instrument_steps = instrument + more, instrument_steps + more_steps
     ladder = [scores(fitter.fit(key[:i])) for i in range(len(key) + 1)]
     missing = key[len(add):]
     verdict, confounded, suggestion = first.verdict, [], None
@@ -428,6 +558,11 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     # fewer points in contact than the last rung's parameters need to be judged (5 each): said in a note
     notes += points_flags(contact_points(data), final.n_free)
     notes += interpolation_flags(final.bound_model, final.x)  # the last rung's surface, where it is not exact
+    pinned = at_physical_range(final, instrument)
+    if pinned:  # named inside its range, pushed to its edge once the sample's effects joined it
+        notes.append(f"{', '.join(pinned)} of the instrument end(s) at the edge of the physical range in "
+                     f"{final.model}: the instrument cannot give that force; something the model does not hold "
+                     "(tethers, the sample's creep) is taken by it")
     if std != final.std:
         scores.rungs[key] = dataclasses.replace(final, std=std)
 
@@ -436,12 +571,18 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
 
     steps = [dataclasses.replace(s, rung=one(s.rung), ranking=[one(f) for f in s.ranking],
                                  rivals=[one(f) for f in s.rivals]) for s in steps]
+    segments_left = segment_misfits(fitter, final)
+    if is_explained and not all(m.explained for m in segments_left):
+        is_explained = False  # explained on the whole, not on every segment
+        if verdict == "none":
+            verdict = "unexplained"
     return Diagnosis(data, sigma, source, data.radius_mm, [one(f) for f in ladder], steps[0].ranking,
                      first.not_detectable, verdict, confounded, suggestion, n_eff, notes, steps=steps,
                      alternatives=[one(f) for f in alternatives], n_given=len(add), fitter=fitter,
                      explained=is_explained, std_source=std_source, not_determined=not_determined,
-                     untried=untried, predictions=predictions, candidates=candidates, curves=list(curves),
-                     noises_mN=list(sigmas), noise_sources=list(sources))
+                     untried=untried, predictions=predictions, candidates=all_candidates, curves=list(curves),
+                     noises_mN=list(sigmas), noise_sources=list(sources), instrument=instrument,
+                     instrument_steps=instrument_steps, segments=segments_left, n_user=len(given))
 
 
 #: Poisson's ratio every model of a diagnosis holds at AFM scale: the nearly incompressible end that

@@ -258,6 +258,12 @@ class Evaluation:
         The force (mN): the elastic force after the :data:`ELASTIC` stage, then changed
         by :data:`HISTORY` and :data:`FORCE` effects.
     radius_mm : float
+    kind : ndarray of str or None
+        The segment of each point (``approach``, ``hold``, ``retract``; instrument effects act per segment).
+    baseline : Baseline or None
+        The line the preparation subtracted from the recorded force
+        (:class:`~skin_indent.measurement.contact.Baseline`; the instrument's effects remove from
+        themselves what it holds of them).
     cache : dict
         Per-model storage for expensive intermediate results (e.g. relaxation weights).
     """
@@ -268,6 +274,8 @@ class Evaluation:
     radius_mm: float
     force_mN: np.ndarray | None = None
     cache: dict = field(default_factory=dict)
+    kind: np.ndarray | None = None
+    baseline: object = None
 
 
 class Effect:
@@ -301,6 +309,10 @@ class Effect:
         Effects of one kind are alternative descriptions of one mechanism (``relaxation``: the
         kernels ``viscoelastic`` and ``viscoelastic_powerlaw``): a model has at most one of a kind, and the
         diagnosis ranks them against each other instead of stacking them. "": none.
+    instrument : bool
+        An effect of the measurement (drag on the probe, a baseline's drift), not of the sample: the
+        diagnosis fits it with the sample's parameters but names it apart (``instrument``), and a curve
+        that the instrument's effects alone explain is ``none`` for the sample.
     """
 
     name: str = ""
@@ -312,6 +324,7 @@ class Effect:
     repeatable: bool = False
     per_curve: bool = False
     kind: str = ""
+    instrument: bool = False
 
     def __repr__(self) -> str:
         return f"<effect {self.name}: {self.description}>"

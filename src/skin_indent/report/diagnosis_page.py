@@ -63,6 +63,12 @@ def _canvas(fig, figsize):
     return Figure(figsize=figsize, layout="constrained")
 
 
+def _verdicts(diag) -> str:
+    """``"sample: viscoelastic; instrument: drag"`` (a diagnosis made before the instrument had effects:
+    ``"verdict ..."``)."""
+    return diag.verdicts() if hasattr(diag, "verdicts") else f"verdict {diag.verdict}"
+
+
 def fit_figure(diag, fig=None):
     """The measurement and every fitted model against depth (``fit.png``).
 
@@ -96,7 +102,8 @@ def fit_figure(diag, fig=None):
                 + (f": same curve as {same[name]}" if name in same else ""))
     ax.set_xlabel(f"depth ({u.length})")
     ax.set_ylabel(f"force ({u.force})")
-    ax.set_title(f"{Path(d.source).name}: verdict {diag.verdict}" + (" (provisional)" if diag.provisional else ""))
+    ax.set_title(f"{Path(d.source).name}: {_verdicts(diag)}" + (" (provisional)" if diag.provisional else ""),
+                 fontsize=9)
     ax.legend(fontsize=8)
     return fig
 
@@ -282,6 +289,10 @@ def page_context(diag, figure_paths=()) -> dict:
     return {
         "source": str(diag.data.source), "name": " + ".join(Path(c.source).name for c in diag.curves) if joint
         else Path(diag.data.source).name, "verdict": diag.verdict, "sample": sample,
+        "instrument": getattr(diag, "instrument_verdict", "none"),
+        "segments": [{"curve": m.curve + 1, "kind": m.kind, "points": m.n, "rms": f"{m.rms_mN * kF:.4g}",
+                      "ratio": f"{m.ratio:.3g}", "white": bool(m.white), "explained": bool(m.explained),
+                      "sentence": shown_in(m.sentence(), u)} for m in getattr(diag, "segments", [])],
         "provisional": bool(diag.provisional), "sentence": diag.sentence(u), "untried": list(diag.untried.items()),
         "noise": ", ".join(f"{v * kF:.4g}" for v in diag.noises_mN) if joint else f"{diag.noise_mN * kF:.4g}",
         "noise_source": diag.noise_source, "points": diag.data.n,

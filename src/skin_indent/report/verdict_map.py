@@ -75,7 +75,7 @@ def verdict_line(row) -> str:
     Returns
     -------
     str
-        ``label: verdict [(provisional)]; final model M: E = ... kPa +- ..., misfit ... x noise,
+        ``label: sample: verdict; instrument: drag, baselines [(provisional)]; final model M: E = ... kPa +- ..., misfit ... x noise,
         white|structured[; other explanations: ...]`` (``Pa`` for an AFM-scale sphere), or
         ``label: error: ...``.
     """
@@ -83,7 +83,9 @@ def verdict_line(row) -> str:
         return f"{row.label}: error: {row.error}"
     u = display_units(row.radius_mm)
     sd = "" if not math.isfinite(row.E_std_kPa) else f" +- {row.E_std_kPa * u.per_kPa:.2g}"
-    text = (f"{row.label}: {row.verdict}{' (provisional)' if row.provisional else ''}; final model "
+    instrument = getattr(row, "instrument", "")
+    verdict = f"sample: {row.verdict}; instrument: {instrument}" if instrument else row.verdict
+    text = (f"{row.label}: {verdict}{' (provisional)' if row.provisional else ''}; final model "
             f"{row.model}: E = {row.E_kPa * u.per_kPa:.4g}{sd} {u.modulus}, misfit {row.misfit:.3g} x noise, "
             f"{'white' if row.white else 'structured'}")
     if len(row.confounded_with) > 1:
