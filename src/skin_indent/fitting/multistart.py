@@ -21,6 +21,7 @@ from .identification import hertz_modulus
 from .rung import MODEL_ERROR, NO_STRUCTURE, Rung, evidence, structure_sentence
 from .knowledge import held_coordinates, prior_rows, prior_summary
 from .scale_checks import check_points
+from .ended import how_it_ended, moved
 from .starts import MAX_STARTS, screen, start_vectors
 from .surfaces import elastic_core
 
@@ -41,6 +42,13 @@ FE_PROBE = 5
 #: relative tolerance of such a fit on the cost and the parameters: 1e-4 of a chi-square of ~n
 #: moves a BIC by ~0.01, far below the differences diagnosis acts on
 FE_TOL = 1e-4
+#: a fit stopped by its budget goes on from where it got, with a fresh trust region and the same
+#: budget, at most this many times while each restart lowers the cost by more than ``FE_TOL``
+#: (:meth:`Fitter._resumed`); one still stopped by its budget after them is flagged
+#: (:func:`~skin_indent.fitting.ended.how_it_ended`)
+RESUMES = 3
+#: function evaluations of a fit on response surfaces (None: scipy's default, 100 per parameter)
+SURFACE_MAX_EVALUATIONS = None
 
 
 class Fitter:
@@ -349,20 +357,27 @@ class Fitter:
             nested = starts[0] if self.warm(key) is not None else None
             starts = screen(self, model, starts, FE_PROBES, nested=nested)
             options = dict(ftol=FE_TOL, xtol=FE_TOL, gtol=1e-8, max_nfev=FE_MAX_EVALUATIONS)
-        best, first = None, None
+        elif SURFACE_MAX_EVALUATIONS is not None:
+            options = dict(max_nfev=SURFACE_MAX_EVALUATIONS)
+        best, first, still, still_at = None, None, None, None
         for i, x0 in enumerate(starts):
             try:
                 res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **known, **options)
             except ValueError:  # a run of this start's fit failed: the next start
                 continue
-            if best is None or _cost(res) < _cost(best):
+            if not moved(res):  # a stationary start: kept only if no start that moved does as well
+                if still is None or _cost(res) < _cost(still):
+                    still, still_at = res, i
+            elif best is None or _cost(res) < _cost(best):
                 best, first = res, i
             if looped:
                 break
+        if still is not None and (best is None or _cost(best) > _cost(still) * (1 + FE_TOL)):
+            best, first = still, still_at
         noise = float(np.sqrt(np.mean(self.sigma(d.force_mN) ** 2)))  # with the model error
-        if looped and best is not None and best.rms_mN > FE_RETRY * noise and best.status == 0:
-            # stopped by its budget short of the noise: on from where it got (measured: two layers
-            # on a rigid base stopped at 0.065 mN on its way to the truth's 0.041 mN, noise 0.03)
+        if best is not None and best.status == 0:
+            # stopped by its budget: on from where it got (measured: two layers on a rigid base
+            # stopped at 0.065 mN on its way to the truth's 0.041 mN, noise 0.03)
             best = self._resumed(model, best, known, options)
         if looped and best is not None and best.rms_mN > FE_RETRY * noise:
             # the best-ranked start led to a fit that does not reach the noise: a short fit from
@@ -433,21 +448,37 @@ class Fitter:
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
-                    curve_white=curve_white)
+                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)))
         self.fits[key] = rung
         return rung
 
     def _resumed(self, model, result, known: dict, options: dict):
-        """A fit in the loop that stopped by its budget (``status`` 0), fitted on from where it got
-        with the same budget: the better of the two (a run that fails leaves ``result``)."""
+        """A fit that stopped by its budget (``status`` 0), fitted on from where it got with a fresh
+        trust region and the same budget, up to :data:`RESUMES` times while each restart lowers the
+        cost by more than :data:`FE_TOL` and stops by its budget again: the best fit reached (a run
+        that fails leaves the last). Each restart's own start is the previous end, so a resumed fit
+        that goes on counts as moved from the first start (``info["x0"]`` is the first one's)."""
         lo, hi = model.bounds
-        x = np.array([result.parameters[n] for n in model.parameter_names])
-        try:
-            more = fit_least_squares(model, self.data.depth_mm, self.data.force_mN, np.clip(x, lo, hi),
-                                     noise_mN=self.noise_mN, **known, **options)
-        except ValueError:
-            return result
-        return more if _cost(more) < _cost(result) else result
+        first_start = dict(result.info.get("x0", {}))
+        for _ in range(RESUMES):
+            if result.status != 0:
+                break
+            x = np.array([result.parameters[n] for n in model.parameter_names])
+            try:
+                more = fit_least_squares(model, self.data.depth_mm, self.data.force_mN, np.clip(x, lo, hi),
+                                         noise_mN=self.noise_mN, **known, **options)
+            except ValueError:
+                break
+            gain = _cost(result) - _cost(more)
+            if gain < 0:
+                break
+            more = dataclasses.replace(more, info={**more.info, "x0": first_start,
+                                                   "nfev": int(more.info.get("nfev", 0)) + int(result.info.get("nfev", 0)),
+                                                   "resumed": int(result.info.get("resumed", 0)) + 1})
+            result = more
+            if gain <= FE_TOL * max(_cost(result), 1e-300):
+                break
+        return result
 
     def _per_curve(self, residual, sigma, n_free: int) -> tuple[tuple, tuple]:
         """Each curve's RMS residual (mN) and whether its residual alone is white (one curve: the fit's)."""

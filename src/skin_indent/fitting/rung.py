@@ -61,6 +61,10 @@ class Rung(IdentificationResult):
         The RMS residual of each curve (mN), in input order (one curve: ``(rms_mN,)``).
     curve_white : tuple of bool
         Whether each curve's residual passes the whiteness tests on its own.
+    ended : tuple of Ending
+        How the fit ended where that is not a result (:func:`~skin_indent.fitting.ended.how_it_ended`:
+        its evaluation budget, its start values, a parameter at the edge of its surface or at a bound);
+        ``flags`` their texts, ``moved`` whether it left its start.
     """
 
     BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
@@ -81,6 +85,17 @@ class Rung(IdentificationResult):
     priors: dict = field(default_factory=dict)
     curve_rms_mN: tuple = ()
     curve_white: tuple = ()
+    ended: tuple = ()
+
+    @property
+    def flags(self) -> tuple:
+        """How the fit ended, where that is not a result (:attr:`ended`): what every output shows."""
+        return tuple(e.text for e in self.ended)
+
+    @property
+    def moved(self) -> bool:
+        """The fit left its start values (a fit that did not move decides nothing)."""
+        return not any(e.kind == "start" for e in self.ended)
 
     @property
     def residual_mN(self) -> np.ndarray:
@@ -94,7 +109,8 @@ class Rung(IdentificationResult):
         """JSON-safe summary of the rung."""
         return jsonable({"model": self.model, "parameters": self.parameters, "std": self.std,
                          "rms_mN": self.rms_of_curves, "bic": self.bic, "white": self.white,
-                         "n_parameters": self.n_parameters, "structure": self.structure, "priors": self.priors})
+                         "n_parameters": self.n_parameters, "structure": self.structure, "priors": self.priors,
+                         "flags": list(self.flags)})
 
     @property
     def rms_of_curves(self):
@@ -103,6 +119,48 @@ class Rung(IdentificationResult):
         if len(self.curve_rms_mN) > 1:
             return [float(v) for v in self.curve_rms_mN]
         return self.rms_mN
+
+
+def reported_correlations(rung) -> tuple:
+    """The correlations of a rung's parameters under the names results report (``ratio``, not the fit's
+    ``compliance``): ``((name, name, r), ...)`` for every pair that some free coordinate moves, by the
+    delta method from the fit's covariance (a sign and a size the fit's coordinates need not share:
+    ``ratio`` = 1 / ``compliance``). Infinite values (a rigid base) and held values have none."""
+    model, x = rung.bound_model, rung.x
+    if model is None or x is None or not hasattr(model, "model_parameters"):
+        return tuple((a, b, r) for a, b, r in IdentificationResult.correlation_pairs(rung))
+    x = np.asarray(x, dtype=float)
+    names = list(model.parameter_names)
+    idx = [names.index(n) for n in rung.free_names]
+    C = np.zeros((x.size, x.size))
+    cov = np.asarray(rung.covariance, dtype=float)
+    if cov.shape != (len(idx), len(idx)) or not np.all(np.isfinite(cov)):
+        return ()
+    C[np.ix_(idx, idx)] = cov
+    at = model.model_parameters(x)
+    keys = [k for k, v in at.items() if math.isfinite(v)]
+    G = np.zeros((len(keys), x.size))
+    for j in idx:
+        step = 1e-6 * max(abs(x[j]), 1e-6)
+        up, down = x.copy(), x.copy()
+        up[j] += step
+        down[j] -= step
+        try:
+            a, b = model.model_parameters(up), model.model_parameters(down)
+        except (ValueError, ZeroDivisionError, OverflowError):
+            return ()
+        for i, k in enumerate(keys):
+            d = a[k] - b[k]
+            G[i, j] = d / (2 * step) if math.isfinite(d) else 0.0
+    moving = [i for i in range(len(keys)) if np.any(G[i] != 0)]
+    V = G[moving] @ C @ G[moving].T
+    sd = np.sqrt(np.clip(np.diag(V), 0.0, None))
+    out = []
+    for p, i in enumerate(moving):
+        for q in range(p + 1, len(moving)):
+            if sd[p] > 0 and sd[q] > 0:
+                out.append((keys[i], keys[moving[q]], float(np.clip(V[p, q] / (sd[p] * sd[q]), -1.0, 1.0))))
+    return tuple(out)
 
 
 def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:

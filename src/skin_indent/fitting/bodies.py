@@ -1,0 +1,142 @@
+"""The final model as a reader wants it: the Young's modulus of each body, the thicknesses, and what ``ratio`` means.
+
+A fitted model reports its parameters as the fit needs them: ``E_kPa`` of the top material, each
+layer's ``thickness_mm`` and ``ratio`` (the modulus below it over its own). :func:`bodies` turns
+them into the bodies a skin researcher names (the top layer, the layer under it, the material
+below: a half-space or a rigid base), each with its modulus and standard deviation (the delta
+method from the fit's covariance), and :func:`body_lines` writes them for the terminal; the JSON
+and the report show the same numbers (:meth:`~skin_indent.diagnosis.Diagnosis.to_dict`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..effects import numbered
+
+__all__ = ["RATIO_MEANING", "bodies", "body_lines"]
+
+#: what ``ratio`` is, in one line
+RATIO_MEANING = ("ratio = E of the material below a layer / E of the layer (ratio < 1: softer below, > 1: stiffer "
+                 "below, inf: a rigid base); ratio2 the same for the second layer")
+
+
+def _full_covariance(rung):
+    """The covariance of the rung's whole fit vector (held values 0), or None."""
+    model, x = rung.bound_model, rung.x
+    if model is None or x is None:
+        return None
+    names = list(model.parameter_names)
+    cov = np.asarray(rung.covariance, dtype=float)
+    idx = [names.index(n) for n in rung.free_names if n in names]
+    if cov.shape != (len(idx), len(idx)) or not np.all(np.isfinite(cov)):
+        return None
+    C = np.zeros((len(names), len(names)))
+    C[np.ix_(idx, idx)] = cov
+    return C
+
+
+def _sd(rung, value_of) -> float:
+    """Standard deviation of ``value_of(model parameters)`` by the delta method (NaN when unknown)."""
+    C = _full_covariance(rung)
+    if C is None:
+        return math.nan
+    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
+    g = np.zeros(x.size)
+    for j in range(x.size):
+        if not np.any(C[j]):
+            continue
+        step = 1e-6 * max(abs(x[j]), 1e-6)
+        up, down = x.copy(), x.copy()
+        up[j] += step
+        down[j] -= step
+        try:
+            d = value_of(model.model_parameters(up)) - value_of(model.model_parameters(down))
+        except (ValueError, ZeroDivisionError, OverflowError):
+            return math.nan
+        g[j] = d / (2 * step) if math.isfinite(d) else 0.0
+    var = float(g @ C @ g)
+    return math.sqrt(var) if var >= 0 else math.nan
+
+
+def bodies(rung) -> dict:
+    """The bodies of a fitted model, top first, and its other parameters.
+
+    Parameters
+    ----------
+    rung : Rung
+        A fitted model (its ``parameters``, ``std``, ``effects``, ``bound_model``, ``x``, ``covariance``).
+
+    Returns
+    -------
+    dict
+        ``model``; ``bodies``: a list of ``{"body", "E_kPa", "E_sd_kPa", "thickness_mm", "thickness_sd_mm"}``
+        (``thickness_mm`` None for the material below; ``E_kPa`` ``inf`` for a rigid base; an sd None
+        where a value is held or not determined by the fit); ``nu`` and ``nu_sd``; ``other``: every other
+        parameter ``{name: [value, sd]}``; ``ratio``: :data:`RATIO_MEANING` where the model has layers.
+    """
+    p, std = rung.parameters, rung.std
+    layers = sum(1 for e in rung.effects if e == "layer")
+    used = {"E_kPa", "nu"}
+    out, factor, names = [], [], []
+    E = p["E_kPa"]
+
+    def sd_of(value):
+        return None if not math.isfinite(value) else value
+
+    for k in range(1, layers + 1):
+        t, r = numbered("thickness_mm", k), numbered("ratio", k)
+        used |= {t, r}
+        chain = tuple(names)
+        modulus = E * math.prod(p[n] for n in chain)
+        sd = std.get("E_kPa") if not chain else _sd(rung, lambda q, c=chain: q["E_kPa"] * math.prod(q[n] for n in c))
+        label = "top layer" if k == 1 else f"layer {k}"
+        out.append({"body": label, "E_kPa": modulus, "E_sd_kPa": sd_of(sd) if sd is not None else None,
+                    "thickness_mm": p.get(t), "thickness_sd_mm": std.get(t)})
+        names.append(r)
+    chain = tuple(names)
+    below = E * math.prod(p[n] for n in chain) if chain else E
+    if chain and math.isinf(below):
+        out.append({"body": "below: rigid base", "E_kPa": math.inf, "E_sd_kPa": None, "thickness_mm": None,
+                    "thickness_sd_mm": None})
+    else:
+        sd = std.get("E_kPa") if not chain else _sd(rung, lambda q, c=chain: q["E_kPa"] * math.prod(q[n] for n in c))
+        out.append({"body": "below: half-space" if chain else "half-space", "E_kPa": below,
+                    "E_sd_kPa": sd_of(sd) if sd is not None else None, "thickness_mm": None, "thickness_sd_mm": None})
+    other = {k: [v, std.get(k)] for k, v in p.items() if k not in used}
+    return {"model": rung.model, "bodies": out, "nu": p.get("nu"), "nu_sd": std.get("nu"), "other": other,
+            **({"ratio": RATIO_MEANING} if layers else {})}
+
+
+def _pm(value, sd, scale: float, unit: str = "") -> str:
+    if value is None:
+        return "-"
+    if math.isinf(value):
+        return "inf (rigid)"
+    text = f"{value * scale:.4g}"
+    if sd is None:
+        text += " (held)"
+    elif math.isfinite(sd):
+        text += f" +- {sd * scale:.2g}"
+    return text + (f" {unit}" if unit else "")
+
+
+def body_lines(rung, units) -> list[str]:
+    """The final model for the terminal: one line per body (E, thickness), nu, the other parameters,
+    and what ``ratio`` means; in ``units`` (:class:`~skin_indent.measurement.scale.DisplayUnits`)."""
+    b = bodies(rung)
+    M, L = units.modulus, units.length
+    lines = [f"final model: {b['model']} (sd from the fit)"]
+    for body in b["bodies"]:
+        text = f"  {body['body']}: E = {_pm(body['E_kPa'], body['E_sd_kPa'], units.per_kPa, M)}"
+        if body["thickness_mm"] is not None:
+            text += f", thickness = {_pm(body['thickness_mm'], body['thickness_sd_mm'], units.per_mm, L)}"
+        lines.append(text)
+    lines.append(f"  nu = {_pm(b['nu'], b['nu_sd'], 1.0)} (all materials)")
+    for name, (v, sd) in b["other"].items():
+        lines.append(f"  {units.name(name)} = {_pm(v, sd, units.factor(name))}")
+    if "ratio" in b:
+        lines.append(f"  ({b['ratio']})")
+    return lines
