@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from analytic_model import HertzLikeModel
-from skin_indent.fitting import fit, multistart
+from skin_indent.fitting import fit, multistart, resume
 from skin_indent.fitting.ended import BOUND, BUDGET, EDGE, START, how_it_ended, moved
 from skin_indent.measurement import measurement_from_arrays
 
@@ -94,7 +94,7 @@ def _said_everywhere(result, tmp_path, words):
 
 def test_a_fit_stopped_by_its_budget_says_so(analytic, monkeypatch, tmp_path):
     monkeypatch.setattr(multistart, "SURFACE_MAX_EVALUATIONS", 3)
-    monkeypatch.setattr(multistart, "RESUMES", 0)
+    monkeypatch.setattr(resume, "RESUMES", 0)
     r = _fit(_curve(), tmp_path=tmp_path)
     assert r.status == 0 and not r.success
     _said_everywhere(r, tmp_path, "stopped at its evaluation budget")
@@ -214,3 +214,18 @@ def test_the_ladder_never_ranks_nor_rejects_with_a_fit_that_did_not_move():
     fits["layer", "stiffening"] = dataclasses.replace(fits["layer", "stiffening"], moved=True)
     step = _examine(_Fitter(fits), ("layer",), ("layer", "stiffening"), Scores(n, n))
     assert {f.effects[-1] for f in step.ranking} == {"layer", "stiffening"}
+
+
+def test_a_start_the_data_push_against_a_face_is_an_optimum_not_a_stall():
+    """Not moving from a start on a face of the range that the data push against (an effect switched
+    off at its bound) is an optimum the fit found; not moving from a flat start is a stall."""
+    from skin_indent.fitting.ended import stalled
+    from skin_indent.inverse import fit_least_squares
+
+    d = np.linspace(0.006, 0.6, 60)
+    F = _Core(6.22, upper=(1e3, 0.49)).force(d, [150.0, 0.49])
+    at_face = fit_least_squares(_Core(6.22), d, F, [100.0, 0.49], noise_mN=NOISE)
+    assert not moved(at_face) and at_face.status > 0 and not stalled(at_face)
+    flat = fit_least_squares(_FlatCore(6.22), d, F, [20.0, 0.4], noise_mN=NOISE)
+    assert not moved(flat) and stalled(flat)
+    assert [e.kind for e in how_it_ended(flat)] == [START]

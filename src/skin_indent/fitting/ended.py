@@ -5,15 +5,16 @@ terminal report, ``flags`` in the JSON, the tables, the HTML report, the diagnos
 says so in the words :func:`how_it_ended` writes, naming the parameter and the next step:
 
 - ``budget``: it stopped at its evaluation budget (scipy's ``status`` 0) before converging;
-- ``start``: it ended at its start values, not having moved (a stationary start: the simpler
-  model's optimum, where an added effect does nothing, or a flat direction);
+- ``start``: it ended at its start values without having found them optimal (:func:`stalled`: a
+  stationary start, the simpler model's optimum where an added effect does nothing, or a flat
+  direction; a start on a face the data push against is an optimum, not a stall);
 - ``edge``: a parameter ended on a face of the range its forward model covers (a response
   surface's last node, what the finite-element model solves) inside the parameter's own range;
 - ``bound``: a parameter ended on a face of its range short of a physical limit (a rigid base,
   the nearly incompressible end are limits a fit may rightly find, and are not flagged).
 
 :func:`ending_flags` is what outputs read; :func:`moved` is what a diagnosis asks before it
-lets a fit decide anything.
+lets a fit decide anything (:func:`stalled`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 from ..measurement.scale import Name, Quantity, UnitText
 
 __all__ = ["BUDGET", "BOUND", "EDGE", "START", "Ending", "ending_flags", "how_it_ended", "moved", "reported_name",
-           "verdict"]
+           "reported_message", "stalled", "verdict"]
 
 BUDGET, START, EDGE, BOUND = "budget", "start", "edge", "bound"
 #: a fit whose every free parameter moved less than this fraction of its scale did not move
@@ -98,6 +99,20 @@ def moved(result) -> bool:
     return False
 
 
+def stalled(result) -> bool:
+    """The fit ended at its start values without having found them optimal: it did not move
+    (:func:`moved`), and either stopped short of converging or converged with no parameter against a
+    face of its range. A start on a face that the data push against (an added effect switched off at
+    its bound, the simpler model's optimum where that effect does nothing) is an optimum the fit
+    found, and does not count; a start where the model is flat (a second layer of the first one's
+    modulus, whose thickness then changes nothing) is a stationary point it could not leave, and does.
+    """
+    if moved(result):
+        return False
+    return result.status <= 0 or not [n for n in (result.info or {}).get("active_bounds", ())
+                                      if n in result.free_names]
+
+
 def reported_name(model, x, name: str) -> tuple[str, float]:
     """The parameter results report for the fit coordinate ``name`` (``compliance`` -> ``ratio``),
     and its value at ``x``: the reported parameter that moves with it (itself where it is reported)."""
@@ -124,6 +139,16 @@ def reported_name(model, x, name: str) -> tuple[str, float]:
         return name, math.nan
     changed = [k for k in at if k not in model.parameter_names and at[k] != near[k]]
     return (changed[0], float(at[changed[0]])) if len(changed) == 1 else (name, math.nan)
+
+
+def reported_message(result, model, x) -> str:
+    """The fit's message with the parameters at a bound under the names results report (``ratio``, not
+    ``compliance``): one name per parameter in every block of a report."""
+    active = list((result.info or {}).get("active_bounds", ()))
+    if not active or "; at bound: " not in result.message:
+        return result.message
+    shown = [reported_name(model, x, n)[0] for n in active]
+    return result.message.replace("; at bound: " + ", ".join(active), "; at bound: " + ", ".join(shown))
 
 
 def _core_of(model, name: str):
@@ -189,7 +214,7 @@ def how_it_ended(result, model=None, x=None, *, limits: bool = True) -> list[End
     if model is not None and x is None:
         x = np.array([result.parameters[n] for n in model.parameter_names], dtype=float)
     out = []
-    still = not moved(result)
+    still = stalled(result)
     if result.status == 0 and not still:  # at its start values, that says more than the budget
         out.append(Ending(BUDGET, (), (
             f"the fit stopped at its evaluation budget ({_spent(result)}) before it converged: the "

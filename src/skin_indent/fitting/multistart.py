@@ -21,7 +21,8 @@ from .identification import hertz_modulus
 from .rung import MODEL_ERROR, NO_STRUCTURE, Rung, evidence, structure_sentence
 from .knowledge import held_coordinates, prior_rows, prior_summary
 from .scale_checks import check_points
-from .ended import how_it_ended, moved
+from .ended import how_it_ended, reported_message, stalled
+from .resume import cost as _cost, resumed
 from .starts import MAX_STARTS, screen, start_vectors
 from .surfaces import elastic_core
 
@@ -42,11 +43,6 @@ FE_PROBE = 5
 #: relative tolerance of such a fit on the cost and the parameters: 1e-4 of a chi-square of ~n
 #: moves a BIC by ~0.01, far below the differences diagnosis acts on
 FE_TOL = 1e-4
-#: a fit stopped by its budget goes on from where it got, with a fresh trust region and the same
-#: budget, at most this many times while each restart lowers the cost by more than ``FE_TOL``
-#: (:meth:`Fitter._resumed`); one still stopped by its budget after them is flagged
-#: (:func:`~skin_indent.fitting.ended.how_it_ended`)
-RESUMES = 3
 #: function evaluations of a fit on response surfaces (None: scipy's default, 100 per parameter)
 SURFACE_MAX_EVALUATIONS = None
 
@@ -365,7 +361,7 @@ class Fitter:
                 res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **known, **options)
             except ValueError:  # a run of this start's fit failed: the next start
                 continue
-            if not moved(res):  # a stationary start: kept only if no start that moved does as well
+            if stalled(res):  # a stationary start: kept only if no start that moved does as well
                 if still is None or _cost(res) < _cost(still):
                     still, still_at = res, i
             elif best is None or _cost(res) < _cost(best):
@@ -379,6 +375,10 @@ class Fitter:
             # stopped by its budget: on from where it got (measured: two layers on a rigid base
             # stopped at 0.065 mN on its way to the truth's 0.041 mN, noise 0.03)
             best = self._resumed(model, best, known, options)
+        elif looped and best is not None and best.status in (2, 3) and best.rms_mN > FE_RETRY * noise:
+            # stopped by its step or cost tolerance short of the noise: the trust region may have
+            # shrunk on the way; a fresh one from the end goes on if there is further to go
+            best = self._resumed(model, best, known, options, early=True)
         if looped and best is not None and best.rms_mN > FE_RETRY * noise:
             # the best-ranked start led to a fit that does not reach the noise: a short fit from
             # each of the other screened starts, and the best of those, if better, to the end
@@ -442,7 +442,7 @@ class Fitter:
         analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
         curve_rms, curve_white = self._per_curve(r, s, best.n_free)
         base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
-        base.update(parameters=params, std=std, bic=math.nan)
+        base.update(parameters=params, std=std, bic=math.nan, message=reported_message(best, model, x))
         rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
@@ -452,33 +452,10 @@ class Fitter:
         self.fits[key] = rung
         return rung
 
-    def _resumed(self, model, result, known: dict, options: dict):
-        """A fit that stopped by its budget (``status`` 0), fitted on from where it got with a fresh
-        trust region and the same budget, up to :data:`RESUMES` times while each restart lowers the
-        cost by more than :data:`FE_TOL` and stops by its budget again: the best fit reached (a run
-        that fails leaves the last). Each restart's own start is the previous end, so a resumed fit
-        that goes on counts as moved from the first start (``info["x0"]`` is the first one's)."""
-        lo, hi = model.bounds
-        first_start = dict(result.info.get("x0", {}))
-        for _ in range(RESUMES):
-            if result.status != 0:
-                break
-            x = np.array([result.parameters[n] for n in model.parameter_names])
-            try:
-                more = fit_least_squares(model, self.data.depth_mm, self.data.force_mN, np.clip(x, lo, hi),
-                                         noise_mN=self.noise_mN, **known, **options)
-            except ValueError:
-                break
-            gain = _cost(result) - _cost(more)
-            if gain < 0:
-                break
-            more = dataclasses.replace(more, info={**more.info, "x0": first_start,
-                                                   "nfev": int(more.info.get("nfev", 0)) + int(result.info.get("nfev", 0)),
-                                                   "resumed": int(result.info.get("resumed", 0)) + 1})
-            result = more
-            if gain <= FE_TOL * max(_cost(result), 1e-300):
-                break
-        return result
+    def _resumed(self, model, result, known: dict, options: dict, early: bool = False):
+        """:func:`~.resume.resumed` on this fitter's points (the fit's own ``known`` and ``options``)."""
+        return resumed(model, self.data.depth_mm, self.data.force_mN, result, noise_mN=self.noise_mN, known=known,
+                       options=options, early=early)
 
     def _per_curve(self, residual, sigma, n_free: int) -> tuple[tuple, tuple]:
         """Each curve's RMS residual (mN) and whether its residual alone is white (one curve: the fit's)."""
@@ -519,8 +496,3 @@ def in_loop(model) -> bool:
 def forward_runs(model) -> int:
     """Finite-element runs made so far by the model's cores (0 for surfaces)."""
     return sum(getattr(c, "runs", 0) for c in model.cores)
-
-
-def _cost(result) -> float:
-    """What a fit minimises: the data's chi-square plus the priors' (their -2 ln posterior up to a constant)."""
-    return float(result.chi2 + result.info.get("prior_chi2", 0.0))
