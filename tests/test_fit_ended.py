@@ -229,3 +229,30 @@ def test_a_start_the_data_push_against_a_face_is_an_optimum_not_a_stall():
     flat = fit_least_squares(_FlatCore(6.22), d, F, [20.0, 0.4], noise_mN=NOISE)
     assert not moved(flat) and stalled(flat)
     assert [e.kind for e in how_it_ended(flat)] == [START]
+
+
+# ----------------------------------------------------------------------------- the final model
+def test_the_final_model_gives_the_modulus_of_each_body_and_what_ratio_means():
+    """Two layers over a half-space: E of each body is E times the ratios above it (the bundled
+    forearm-like curve's truth: 17.54, 2.92 and 9.35 kPa under 1 and 3 mm)."""
+    from types import SimpleNamespace
+
+    from skin_indent.fitting.bodies import RATIO_MEANING, bodies, body_lines
+    from skin_indent.measurement.scale import SKIN_UNITS
+
+    p = {"E_kPa": 17.54, "nu": 0.48, "thickness_mm": 1.0, "ratio": 2.92 / 17.54, "thickness2_mm": 3.0,
+         "ratio2": 9.35 / 2.92}
+    rung = SimpleNamespace(parameters=p, std={"E_kPa": 0.5, "thickness2_mm": 0.4, "ratio": 0.02, "ratio2": 0.5},
+                           effects=("layer", "layer"), model="neo-hooke+layer+layer", bound_model=None, x=None,
+                           covariance=None, free_names=())
+    b = bodies(rung)
+    assert [round(x["E_kPa"], 6) for x in b["bodies"]] == [17.54, 2.92, 9.35]
+    assert [x["thickness_mm"] for x in b["bodies"]] == [1.0, 3.0, None]
+    assert b["ratio"] == RATIO_MEANING and b["other"] == {}
+    lines = body_lines(rung, SKIN_UNITS)
+    assert lines[1].startswith("  top layer: E = 17.54 +- 0.5 kPa, thickness = 1 mm (held)")
+    assert "layer 2: E = 2.92" in lines[2] and "thickness = 3 +- 0.4 mm" in lines[2]
+    assert "below: half-space: E = 9.35" in lines[3]
+    assert "ratio = E of the material below a layer / E of the layer" in lines[-1]
+    rigid = SimpleNamespace(**{**vars(rung), "parameters": {**p, "ratio2": math.inf}})
+    assert body_lines(rigid, SKIN_UNITS)[3] == "  below: rigid base: E = inf (rigid)"

@@ -116,11 +116,10 @@ def _pm(value, sd, scale: float, unit: str = "") -> str:
     if math.isinf(value):
         return "inf (rigid)"
     text = f"{value * scale:.4g}"
-    if sd is None:
-        text += " (held)"
-    elif math.isfinite(sd):
+    if sd is not None and math.isfinite(sd):
         text += f" +- {sd * scale:.2g}"
-    return text + (f" {unit}" if unit else "")
+    text += f" {unit}" if unit else ""
+    return text + (" (held)" if sd is None else "")
 
 
 def body_lines(rung, units) -> list[str]:
