@@ -151,6 +151,8 @@ class CurveFit(IdentificationResult):
             "priors": dict(self.priors),
             "error_model": dict(self.error_model),
             "provenance": dict(self.provenance),
+            # the correlations under the names ``parameters`` uses (``covariance`` is in the fit's coordinates)
+            "correlations": [{"a": a, "b": b, "r": r} for a, b, r in self.correlation_pairs()],
         })
         return jsonable(out)
 

@@ -85,7 +85,8 @@ class SampleFit(IdentificationResult):
         out.update({"model": self.model, "rms_mN": self.rms_of_curves, "rms_all_mN": self.rms_mN,
                     "curves": [dict(c) for c in self.curves], "flags": list(self.flags), "notes": list(self.notes),
                     "priors": dict(self.priors), "error_model": dict(self.error_model),
-                    "provenance": dict(self.provenance)})
+                    "provenance": dict(self.provenance),
+                    "correlations": [{"a": a, "b": b, "r": r} for a, b, r in self.correlation_pairs()]})
         return jsonable(out)
 
     def report(self, digits: int = 5, units=None) -> str:
