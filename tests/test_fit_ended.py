@@ -256,3 +256,24 @@ def test_the_final_model_gives_the_modulus_of_each_body_and_what_ratio_means():
     assert "ratio = E of the material below a layer / E of the layer" in lines[-1]
     rigid = SimpleNamespace(**{**vars(rung), "parameters": {**p, "ratio2": math.inf}})
     assert body_lines(rigid, SKIN_UNITS)[3] == "  below: rigid base: E = inf (rigid)"
+
+
+def test_the_cli_says_why_a_fit_is_not_a_result_and_what_to_do(analytic, monkeypatch, tmp_path, capsys):
+    """``skin-indent fit --model``: exit 3, stderr with the reason and the next step, JSON ``flags``."""
+    from skin_indent.cli import main
+    from skin_indent.measurement import save_csv
+
+    monkeypatch.setenv("SKIN_INDENT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(multistart, "SURFACE_MAX_EVALUATIONS", 3)
+    monkeypatch.setattr(resume, "RESUMES", 0)
+    path = tmp_path / "analytic.csv"
+    save_csv(_curve(), path)
+    code = main(["fit", str(path), "--model", "neo-hooke", "--radius", "6.22", "--noise", str(NOISE), "--json"])
+    out, err = capsys.readouterr()
+    assert code == 3
+    d = json.loads(out)
+    assert d["success"] is False and any("evaluation budget" in f for f in d["flags"])
+    assert "the fit did not converge" in err and "next: " in err and "evaluation budget" in err
+    code = main(["fit", str(path), "--model", "neo-hooke", "--radius", "6.22", "--noise", str(NOISE)])
+    out, _ = capsys.readouterr()
+    assert code == 3 and "fits to the noise" not in out and "quality: not a result" in out
