@@ -237,7 +237,7 @@ def test_the_final_model_gives_the_modulus_of_each_body_and_what_ratio_means():
     forearm-like curve's truth: 17.54, 2.92 and 9.35 kPa under 1 and 3 mm)."""
     from types import SimpleNamespace
 
-    from skin_indent.fitting.bodies import RATIO_MEANING, bodies, body_lines
+    from skin_indent.fitting.bodies import RATIOS_MEANING, bodies, body_lines
     from skin_indent.measurement.scale import SKIN_UNITS
 
     p = {"E_kPa": 17.54, "nu": 0.48, "thickness_mm": 1.0, "ratio": 2.92 / 17.54, "thickness2_mm": 3.0,
@@ -248,7 +248,7 @@ def test_the_final_model_gives_the_modulus_of_each_body_and_what_ratio_means():
     b = bodies(rung)
     assert [round(x["E_kPa"], 6) for x in b["bodies"]] == [17.54, 2.92, 9.35]
     assert [x["thickness_mm"] for x in b["bodies"]] == [1.0, 3.0, None]
-    assert b["ratio"] == RATIO_MEANING and b["other"] == {}
+    assert b["ratio"] == RATIOS_MEANING and b["other"] == {}
     lines = body_lines(rung, SKIN_UNITS)
     assert lines[1].startswith("  top layer: E = 17.54 +- 0.5 kPa, thickness = 1 mm (held)")
     assert "layer 2: E = 2.92" in lines[2] and "thickness = 3 +- 0.4 mm" in lines[2]
@@ -277,3 +277,20 @@ def test_the_cli_says_why_a_fit_is_not_a_result_and_what_to_do(analytic, monkeyp
     code = main(["fit", str(path), "--model", "neo-hooke", "--radius", "6.22", "--noise", str(NOISE)])
     out, _ = capsys.readouterr()
     assert code == 3 and "fits to the noise" not in out and "quality: not a result" in out
+
+
+def test_an_effect_switched_off_at_the_end_of_its_range_is_an_answer_not_a_flag(analytic, tmp_path):
+    """Adhesion on a curve without it: w ends at 0, the end of its range that switches it off (C20 = 0 of
+    stiffening alike); the same fit with w at a bound elsewhere would be flagged."""
+    from skin_indent.fitting.model_fit import prepare_curve
+    from skin_indent.models import ComposedModel
+
+    m = prepare_curve(_curve())
+    model = ComposedModel(_Core(6.22), ("adhesion",), m)
+    x = np.array([10.0, 0.45, 0.0])
+    assert model.parameter_names == ("E_kPa", "nu", "w_mJ_per_m2")
+    result = dataclasses.make_dataclass("R", ["status", "info", "free_names", "parameters", "message",
+                                              "iterations"])(
+        1, {"active_bounds": ["w_mJ_per_m2"], "x0": {}}, tuple(model.parameter_names),
+        dict(zip(model.parameter_names, x)), "converged", 3)
+    assert how_it_ended(result, model, x) == []

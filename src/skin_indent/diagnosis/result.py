@@ -341,6 +341,7 @@ class Diagnosis:
         for f in self.alternatives:
             lines.append(f"  (other explanation) {f.model:<20} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
                          f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
+            lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]
         for name, k in self.current.priors.items():
             c = u.factor(name)
             lines.append(f"  what you know, {u.name(name)}: prior {k['prior_mean'] * c:.4g} +- "
@@ -361,6 +362,7 @@ class Diagnosis:
             for f in step.ranking:
                 lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
                              f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
+                lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]
             for k, v in step.not_detectable.items():
                 if v.startswith("not fitted"):
                     lines.append(f"  +{k:<13} {shown_in(v, u)}")

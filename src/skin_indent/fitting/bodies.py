@@ -16,11 +16,13 @@ import numpy as np
 
 from ..effects import numbered
 
-__all__ = ["RATIO_MEANING", "bodies", "body_lines"]
+__all__ = ["RATIOS_MEANING", "RATIO_MEANING", "bodies", "body_lines"]
 
 #: what ``ratio`` is, in one line
 RATIO_MEANING = ("ratio = E of the material below a layer / E of the layer (ratio < 1: softer below, > 1: stiffer "
-                 "below, inf: a rigid base); ratio2 the same for the second layer")
+                 "below, inf: a rigid base)")
+#: the same, for a model of several layers
+RATIOS_MEANING = RATIO_MEANING + "; ratio2 the same for the second layer"
 
 
 def _full_covariance(rung):
@@ -107,7 +109,7 @@ def bodies(rung) -> dict:
                     "E_sd_kPa": sd_of(sd) if sd is not None else None, "thickness_mm": None, "thickness_sd_mm": None})
     other = {k: [v, std.get(k)] for k, v in p.items() if k not in used}
     return {"model": rung.model, "bodies": out, "nu": p.get("nu"), "nu_sd": std.get("nu"), "other": other,
-            **({"ratio": RATIO_MEANING} if layers else {})}
+            **({"ratio": RATIO_MEANING if layers == 1 else RATIOS_MEANING} if layers else {})}
 
 
 def _pm(value, sd, scale: float, unit: str = "") -> str:

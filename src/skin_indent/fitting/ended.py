@@ -11,7 +11,8 @@ says so in the words :func:`how_it_ended` writes, naming the parameter and the n
 - ``edge``: a parameter ended on a face of the range its forward model covers (a response
   surface's last node, what the finite-element model solves) inside the parameter's own range;
 - ``bound``: a parameter ended on a face of its range short of a physical limit (a rigid base,
-  the nearly incompressible end are limits a fit may rightly find, and are not flagged).
+  the nearly incompressible end are limits a fit may rightly find, and are not flagged; nor is an
+  effect switched off at the end of its range, ``C20_kPa`` = 0: the data do not want it).
 
 :func:`ending_flags` is what outputs read; :func:`moved` is what a diagnosis asks before it
 lets a fit decide anything (:func:`stalled`).
@@ -151,6 +152,20 @@ def reported_message(result, model, x) -> str:
     return result.message.replace("; at bound: " + ", ".join(active), "; at bound: " + ", ".join(shown))
 
 
+def _switched_off(model, name: str, value: float) -> bool:
+    """``name`` ends at the value that switches its effect off, and that value is an end of its declared
+    range (``C20_kPa`` = 0: no stiffening; ``w_mJ_per_m2`` = 0: no adhesion): the fit found the effect
+    absent, an answer, not a stop short of one."""
+    from ..models.composed import declared_parameters
+
+    if model is None or not hasattr(model, "effects"):
+        return False
+    p = declared_parameters(model).get(name)
+    if p is None or p.off is None or p.off not in (p.lower, p.upper):
+        return False
+    return math.isclose(value, p.off, rel_tol=1e-6, abs_tol=1e-9)
+
+
 def _core_of(model, name: str):
     """The elastic core that owns the fit parameter ``name`` (None: an effect's parameter, or no core)."""
     parts = getattr(model, "parts", None) or [model]
@@ -238,6 +253,8 @@ def how_it_ended(result, model=None, x=None, *, limits: bool = True) -> list[End
         shown, value = reported_name(model, x, name)
         if math.isnan(value) and shown == name:
             value = float(result.parameters.get(name, math.nan))
+        if _switched_off(model, shown, value):
+            continue  # the effect off at the end of its range (no stiffening, no adhesion): the data's answer
         core = _core_of(model, name) if model is not None else None
         head = "{name} at the bound of its range ({name} = " + _value_field(value) + ")"
         if core is not None:
