@@ -264,5 +264,6 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
                       flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
                       priors=dict(rung.priors), error_model=fitter.error_model(),
                       correlations=reported_correlations(rung))
-    return with_scale_flags(result, at_bounds=tuple(rung.at_bounds))
+    ended = tuple(n for e in rung.ended for n in e.parameters)  # by the names results report (ratio)
+    return with_scale_flags(result, at_bounds=tuple(rung.at_bounds) + ended)
 

@@ -143,7 +143,8 @@ def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
         flags += depth_ratio_flags(float((np.max(c.depth_mm) - contact) / c.radius_mm), float(c.radius_mm), where)
     n_contact = sum(contact_points(c, cv["contact_point_mm"]) for c, cv in zip(fitter.curves, curves))
     flags += points_flags(n_contact, int(rung.n_free))
-    flags += undetermined_flags(rung.parameters, rung.std, list(rung.std), rung.at_bounds)
+    flags += undetermined_flags(rung.parameters, rung.std, list(rung.std),
+                                tuple(rung.at_bounds) + tuple(n for e in rung.ended for n in e.parameters))
     for name, s in rung.priors.items():
         if s["in_tension"]:
             flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
