@@ -30,6 +30,9 @@ def _full_covariance(rung):
     model, x = rung.bound_model, rung.x
     if model is None or x is None:
         return None
+    full = getattr(rung, "x_covariance", None)
+    if full is not None and np.shape(full) == (len(x), len(x)) and np.all(np.isfinite(full)):
+        return np.asarray(full, dtype=float)
     names = list(model.parameter_names)
     cov = np.asarray(rung.covariance, dtype=float)
     idx = [names.index(n) for n in rung.free_names if n in names]

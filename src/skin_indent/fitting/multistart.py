@@ -448,7 +448,7 @@ class Fitter:
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
-                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)))
+                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)), x_covariance=cov)
         self.fits[key] = rung
         return rung
 

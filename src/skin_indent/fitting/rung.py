@@ -65,6 +65,10 @@ class Rung(IdentificationResult):
         How the fit ended where that is not a result (:func:`~skin_indent.fitting.ended.how_it_ended`:
         its evaluation budget, its start values, a parameter at the edge of its surface or at a bound);
         ``flags`` their texts, ``moved`` whether it left its start.
+    x_covariance : ndarray
+        The covariance of the whole fitted vector ``x`` that ``std`` comes from (held values 0; a
+        parameter on a face of its range held there), for quantities derived from several parameters
+        (:func:`~skin_indent.fitting.bodies.bodies`: E of each body).
     """
 
     BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
@@ -86,6 +90,7 @@ class Rung(IdentificationResult):
     curve_rms_mN: tuple = ()
     curve_white: tuple = ()
     ended: tuple = ()
+    x_covariance: np.ndarray = field(default=None, repr=False)
 
     @property
     def flags(self) -> tuple:
