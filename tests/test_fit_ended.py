@@ -294,3 +294,23 @@ def test_an_effect_switched_off_at_the_end_of_its_range_is_an_answer_not_a_flag(
         1, {"active_bounds": ["w_mJ_per_m2"], "x0": {}}, tuple(model.parameter_names),
         dict(zip(model.parameter_names, x)), "converged", 3)
     assert how_it_ended(result, model, x) == []
+
+
+def test_a_fit_stopped_by_its_budget_resumed_from_its_end_reaches_the_unbudgeted_fit(monkeypatch):
+    """Restarts with a fresh trust region and the same small budget end where one long fit ends."""
+    from skin_indent.fitting.resume import cost, resumed
+    from skin_indent.inverse import fit_least_squares
+
+    d = np.linspace(0.006, 0.6, 60)
+    core = _Core(6.22)
+    F = core.force(d, [12.0, 0.42]) + np.random.default_rng(3).normal(0.0, NOISE, d.size)
+    short = fit_least_squares(core, d, F, [40.0, 0.3], noise_mN=NOISE, max_nfev=3)
+    assert short.status == 0
+    monkeypatch.setattr(resume, "RESUMES", 50)
+    on = resumed(core, d, F, short, noise_mN=NOISE, known={}, options={"max_nfev": 3})
+    full = fit_least_squares(core, d, F, [40.0, 0.3], noise_mN=NOISE)
+    assert on.status > 0 and on.info["resumed"] >= 1
+    assert on.info["x0"] == short.info["x0"] and on.info["nfev"] > short.info["nfev"]
+    assert cost(on) <= cost(full) * (1 + 1e-6)
+    for name in ("E_kPa", "nu"):
+        assert abs(on.parameters[name] - full.parameters[name]) < 1e-3 * full.std[name]
