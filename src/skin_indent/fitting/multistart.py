@@ -379,9 +379,10 @@ class Fitter:
             # stopped by its step or cost tolerance short of the noise: the trust region may have
             # shrunk on the way; a fresh one from the end goes on if there is further to go
             best = self._resumed(model, best, known, options, early=True)
-        if looped and best is not None and best.rms_mN > FE_RETRY * noise:
-            # the best-ranked start led to a fit that does not reach the noise: a short fit from
-            # each of the other screened starts, and the best of those, if better, to the end
+        if looped and best is not None and (best.rms_mN > FE_RETRY * noise or stalled(best)):
+            # the best-ranked start led to a fit that does not reach the noise, or did not move: a
+            # short fit from each of the other screened starts, and the best of those, if better (or
+            # the first that moved, for one that did not), to the end
             probes = []
             for x0 in starts[first + 1:]:
                 try:
@@ -389,8 +390,8 @@ class Fitter:
                                                     **{**options, "max_nfev": FE_PROBE}))
                 except ValueError:
                     continue
-            lead = min(probes, key=_cost, default=None)
-            if lead is not None and _cost(lead) < _cost(best):
+            lead = min((p for p in probes if not stalled(p)), key=_cost, default=None)
+            if lead is not None and (_cost(lead) < _cost(best) or stalled(best)):
                 if lead.status == 0:  # stopped by its budget: on from where it got
                     lead = self._resumed(model, lead, known, options)
                 best = lead if _cost(lead) < _cost(best) else best
