@@ -340,7 +340,8 @@ def _fit_output(args, path, result, prov) -> int:
 def _not_converged(result) -> str:
     """Why a fit is not a result, in one line with the next step (the flags above say it per parameter)."""
     why = getattr(result, "message", "")
-    return (f"the fit did not converge{f' ({why})' if why else ''}: its values are where it stopped, not a result; next: "
+    why = f" ({why})" if why else ""
+    return (f"the fit did not converge{why}: its values are where it stopped, not a result; next: "
             "hold a parameter you know (--fix NAME=VALUE) or weigh it (--prior NAME=MEAN:SD), or fit a simpler "
             "model (the flags above name the parameters)")
 

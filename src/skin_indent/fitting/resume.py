@@ -48,7 +48,8 @@ def resumed(model, depth_mm, force_mN, result, *, noise_mN, known: dict, options
         The fit that stopped.
     noise_mN : float
     known : dict
-        ``fixed``, ``priors`` (and ``sigma_mN``) of the fit, as :func:`~skin_indent.inverse.fit_least_squares` takes them.
+        ``fixed``, ``priors`` (and ``sigma_mN``) of the fit, as
+        :func:`~skin_indent.inverse.fit_least_squares` takes them.
     options : dict
         Its tolerances and budget (``ftol``, ``xtol``, ``gtol``, ``max_nfev``).
     early : bool
