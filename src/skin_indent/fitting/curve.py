@@ -261,7 +261,9 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
         verdict = "structured misfit: try `skin-indent diagnose`"
     else:
         verdict = "fits to the noise"
-    verdict = ended_verdict(ended) or verdict
+    stopped = ended_verdict(ended)  # how the fit ended says first that its values are not a result
+    if stopped:
+        verdict = stopped if verdict in ("fits to the noise", "fits below the noise level") else f"{stopped}; {verdict}"
     return {"noise_mN": noise, "noise_source": source, "misfit": misfit, "white": bool(white),
             "verdict": verdict}
 

@@ -78,7 +78,7 @@ def verdict(endings) -> str | None:
     endings = list(endings)
     if not endings:
         return None
-    return "not a result: " + "; ".join(dict.fromkeys(e.short for e in endings)) + " (see the flags)"
+    return "not a result (see the flags): " + "; ".join(dict.fromkeys(e.short for e in endings))
 
 
 def moved(result) -> bool:
