@@ -79,37 +79,38 @@ def bodies(rung) -> dict:
     dict
         ``model``; ``bodies``: a list of ``{"body", "E_kPa", "E_sd_kPa", "thickness_mm", "thickness_sd_mm"}``
         (``thickness_mm`` None for the material below; ``E_kPa`` ``inf`` for a rigid base; an sd None
-        where a value is held or not determined by the fit); ``nu`` and ``nu_sd``; ``other``: every other
+        where the value is held, NaN where the fit does not give one); ``nu`` and ``nu_sd``; ``other``: every other
         parameter ``{name: [value, sd]}``; ``ratio``: :data:`RATIO_MEANING` where the model has layers.
     """
     p, std = rung.parameters, rung.std
     layers = sum(1 for e in rung.effects if e == "layer")
     used = {"E_kPa", "nu"}
-    out, factor, names = [], [], []
+    out, names = [], []
     E = p["E_kPa"]
 
-    def sd_of(value):
-        return None if not math.isfinite(value) else value
+    def modulus(chain: tuple) -> tuple:
+        """E times the ratios ``chain`` and its sd: None where every factor is held, NaN where unknown."""
+        value = E * math.prod(p[n] for n in chain)
+        if all(n not in std for n in ("E_kPa", *chain)):
+            return value, None
+        if not chain:
+            return value, float(std["E_kPa"])
+        return value, _sd(rung, lambda q: q["E_kPa"] * math.prod(q[n] for n in chain))
 
     for k in range(1, layers + 1):
         t, r = numbered("thickness_mm", k), numbered("ratio", k)
         used |= {t, r}
-        chain = tuple(names)
-        modulus = E * math.prod(p[n] for n in chain)
-        sd = std.get("E_kPa") if not chain else _sd(rung, lambda q, c=chain: q["E_kPa"] * math.prod(q[n] for n in c))
-        label = "top layer" if k == 1 else f"layer {k}"
-        out.append({"body": label, "E_kPa": modulus, "E_sd_kPa": sd_of(sd) if sd is not None else None,
+        value, sd = modulus(tuple(names))
+        out.append({"body": "top layer" if k == 1 else f"layer {k}", "E_kPa": value, "E_sd_kPa": sd,
                     "thickness_mm": p.get(t), "thickness_sd_mm": std.get(t)})
         names.append(r)
-    chain = tuple(names)
-    below = E * math.prod(p[n] for n in chain) if chain else E
-    if chain and math.isinf(below):
-        out.append({"body": "below: rigid base", "E_kPa": math.inf, "E_sd_kPa": None, "thickness_mm": None,
+    value, sd = modulus(tuple(names))
+    if names and math.isinf(value):
+        out.append({"body": "below: rigid base", "E_kPa": math.inf, "E_sd_kPa": math.nan, "thickness_mm": None,
                     "thickness_sd_mm": None})
     else:
-        sd = std.get("E_kPa") if not chain else _sd(rung, lambda q, c=chain: q["E_kPa"] * math.prod(q[n] for n in c))
-        out.append({"body": "below: half-space" if chain else "half-space", "E_kPa": below,
-                    "E_sd_kPa": sd_of(sd) if sd is not None else None, "thickness_mm": None, "thickness_sd_mm": None})
+        out.append({"body": "below: half-space" if names else "half-space", "E_kPa": value, "E_sd_kPa": sd,
+                    "thickness_mm": None, "thickness_sd_mm": None})
     other = {k: [v, std.get(k)] for k, v in p.items() if k not in used}
     return {"model": rung.model, "bodies": out, "nu": p.get("nu"), "nu_sd": std.get("nu"), "other": other,
             **({"ratio": RATIO_MEANING if layers == 1 else RATIOS_MEANING} if layers else {})}

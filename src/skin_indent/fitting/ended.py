@@ -31,8 +31,10 @@ __all__ = ["BUDGET", "BOUND", "EDGE", "START", "Ending", "ending_flags", "how_it
            "reported_message", "stalled", "verdict"]
 
 BUDGET, START, EDGE, BOUND = "budget", "start", "edge", "bound"
-#: a fit whose every free parameter moved less than this fraction of its scale did not move
+#: a fit whose every free parameter moved less than this fraction of its value (plus
+#: :data:`SPAN_STILL` of its range) did not move
 STILL = 1e-9
+SPAN_STILL = 1e-7
 #: the next step of a parameter the fit left where it stopped
 _HOLD = ("next: hold it if you know it (--fix {name}=VALUE), weigh what you know of it (--prior {name}=MEAN:SD), or "
          "fit a model without it")
@@ -81,26 +83,37 @@ def verdict(endings) -> str | None:
     return "not a result (see the flags): " + "; ".join(dict.fromkeys(e.short for e in endings))
 
 
-def moved(result) -> bool:
+def moved(result, model=None) -> bool:
     """The fit moved from its start: some free parameter ended away from its start value.
 
     ``result`` is an :class:`~skin_indent.inverse.IdentificationResult` of least squares (its
     ``info["x0"]``, the start of each free parameter); a result without a recorded start (a
-    filter's) counts as moved.
+    filter's) counts as moved. With ``model`` (its ``parameter_names`` and ``bounds``), a change
+    below :data:`SPAN_STILL` of a parameter's range is no move: the optimizer's own nudge of a start
+    on a face of its range into the inside (scipy's, 1e-10 of its internal coordinate).
     """
     start = (result.info or {}).get("x0")
     if not start or not result.free_names:
         return True
+    spans = _spans(model)
     for name in result.free_names:
         a, b = float(start.get(name, math.nan)), float(result.parameters.get(name, math.nan))
         if not (math.isfinite(a) and math.isfinite(b)):
             return True
-        if abs(a - b) > STILL * max(abs(a), abs(b), 1e-12):
+        if abs(a - b) > STILL * max(abs(a), abs(b), 1e-12) + SPAN_STILL * spans.get(name, 0.0):
             return True
     return False
 
 
-def stalled(result) -> bool:
+def _spans(model) -> dict:
+    """``{fit parameter: width of its range}`` (finite widths only; empty without a model)."""
+    if model is None or not hasattr(model, "bounds"):
+        return {}
+    lo, hi = (np.asarray(b, dtype=float) for b in model.bounds)
+    return {n: float(h - l) for n, l, h in zip(model.parameter_names, lo, hi) if math.isfinite(h - l)}
+
+
+def stalled(result, model=None) -> bool:
     """The fit ended at its start values without having found them optimal: it did not move
     (:func:`moved`), and either stopped short of converging or converged with no parameter against a
     face of its range. A start on a face that the data push against (an added effect switched off at
@@ -108,7 +121,7 @@ def stalled(result) -> bool:
     found, and does not count; a start where the model is flat (a second layer of the first one's
     modulus, whose thickness then changes nothing) is a stationary point it could not leave, and does.
     """
-    if moved(result):
+    if moved(result, model):
         return False
     return result.status <= 0 or not [n for n in (result.info or {}).get("active_bounds", ())
                                       if n in result.free_names]
@@ -152,18 +165,27 @@ def reported_message(result, model, x) -> str:
     return result.message.replace("; at bound: " + ", ".join(active), "; at bound: " + ", ".join(shown))
 
 
-def _switched_off(model, name: str, value: float) -> bool:
-    """``name`` ends at the value that switches its effect off, and that value is an end of its declared
-    range (``C20_kPa`` = 0: no stiffening; ``w_mJ_per_m2`` = 0: no adhesion): the fit found the effect
-    absent, an answer, not a stop short of one."""
+def _switched_off(model, x, name: str, shown: str) -> bool:
+    """The fit parameter ``name``, on a face of its range, switches its effect off there, and that is an
+    end of the declared range of ``shown`` (the parameter results report): ``C20_kPa`` = 0, no
+    stiffening; ``w_mJ_per_m2`` = 0, no adhesion. The fit found the effect absent: an answer, not a
+    stop short of one. Judged at the face itself (the optimizer stops a hair inside it)."""
     from ..models.composed import declared_parameters
 
-    if model is None or not hasattr(model, "effects"):
+    if model is None or x is None or not hasattr(model, "effects") or name not in model.parameter_names:
         return False
-    p = declared_parameters(model).get(name)
+    p = declared_parameters(model).get(shown)
     if p is None or p.off is None or p.off not in (p.lower, p.upper):
         return False
-    return math.isclose(value, p.off, rel_tol=1e-6, abs_tol=1e-9)
+    i = model.parameter_names.index(name)
+    lo, hi = (float(np.asarray(b, dtype=float)[i]) for b in model.bounds)
+    face = np.array(x, dtype=float)
+    face[i] = lo if abs(face[i] - lo) <= abs(hi - face[i]) else hi
+    try:
+        value = float(model.model_parameters(face)[shown])
+    except (ValueError, ZeroDivisionError, OverflowError, KeyError):
+        return False
+    return math.isclose(value, p.off, rel_tol=1e-9, abs_tol=1e-12)
 
 
 def _core_of(model, name: str):
@@ -229,7 +251,7 @@ def how_it_ended(result, model=None, x=None, *, limits: bool = True) -> list[End
     if model is not None and x is None:
         x = np.array([result.parameters[n] for n in model.parameter_names], dtype=float)
     out = []
-    still = stalled(result)
+    still = stalled(result, model)
     if result.status == 0 and not still:  # at its start values, that says more than the budget
         out.append(Ending(BUDGET, (), (
             f"the fit stopped at its evaluation budget ({_spent(result)}) before it converged: the "
@@ -253,7 +275,7 @@ def how_it_ended(result, model=None, x=None, *, limits: bool = True) -> list[End
         shown, value = reported_name(model, x, name)
         if math.isnan(value) and shown == name:
             value = float(result.parameters.get(name, math.nan))
-        if _switched_off(model, shown, value):
+        if _switched_off(model, x, name, shown):
             continue  # the effect off at the end of its range (no stiffening, no adhesion): the data's answer
         core = _core_of(model, name) if model is not None else None
         head = "{name} at the bound of its range ({name} = " + _value_field(value) + ")"

@@ -361,7 +361,7 @@ class Fitter:
                 res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **known, **options)
             except ValueError:  # a run of this start's fit failed: the next start
                 continue
-            if stalled(res):  # a stationary start: kept only if no start that moved does as well
+            if stalled(res, model):  # a stationary start: kept only if no start that moved does as well
                 if still is None or _cost(res) < _cost(still):
                     still, still_at = res, i
             elif best is None or _cost(res) < _cost(best):
@@ -379,7 +379,7 @@ class Fitter:
             # stopped by its step or cost tolerance short of the noise: the trust region may have
             # shrunk on the way; a fresh one from the end goes on if there is further to go
             best = self._resumed(model, best, known, options, early=True)
-        if looped and best is not None and (best.rms_mN > FE_RETRY * noise or stalled(best)):
+        if looped and best is not None and (best.rms_mN > FE_RETRY * noise or stalled(best, model)):
             # the best-ranked start led to a fit that does not reach the noise, or did not move: a
             # short fit from each of the other screened starts, and the best of those, if better (or
             # the first that moved, for one that did not), to the end
@@ -390,8 +390,8 @@ class Fitter:
                                                     **{**options, "max_nfev": FE_PROBE}))
                 except ValueError:
                     continue
-            lead = min((p for p in probes if not stalled(p)), key=_cost, default=None)
-            if lead is not None and (_cost(lead) < _cost(best) or stalled(best)):
+            lead = min((p for p in probes if not stalled(p, model)), key=_cost, default=None)
+            if lead is not None and (_cost(lead) < _cost(best) or stalled(best, model)):
                 if lead.status == 0:  # stopped by its budget: on from where it got
                     lead = self._resumed(model, lead, known, options)
                 best = lead if _cost(lead) < _cost(best) else best

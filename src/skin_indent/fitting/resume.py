@@ -32,10 +32,10 @@ def resumed(model, depth_mm, force_mN, result, *, noise_mN, known: dict, options
     """``result`` fitted on from where it stopped, with a fresh trust region and the same budget.
 
     Up to :data:`RESUMES` restarts while the fit stops by its budget (``status`` 0) and each restart
-    lowers the cost by more than the fit's ``ftol``: the best fit reached (a restart whose run fails,
-    or that ends higher, leaves the last). A restart that lowers the cost by less than ``ftol`` of it
-    over a whole budget meets scipy's own ``ftol`` test across the two, and the fit is reported
-    converged (``status`` 2, its message saying so). The result keeps the first start in
+    lowers the cost by more than the fit's ``ftol``: the best fit reached (a restart whose run fails
+    leaves the last, one that ends higher keeps it). A restart that lowers the cost by less than
+    ``ftol`` of it over a whole budget, or not at all, meets scipy's own ``ftol`` test across the
+    two, and the fit is reported converged (``status`` 2, its message saying so). The result keeps the first start in
     ``info["x0"]`` (it moved from there), counts every evaluation in ``info["nfev"]`` and the
     restarts in ``info["resumed"]``.
 
@@ -68,16 +68,17 @@ def resumed(model, depth_mm, force_mN, result, *, noise_mN, known: dict, options
         except ValueError:
             break
         gain = cost(result) - cost(more)
-        if gain < 0:
-            break
         nfev = int(more.info.get("nfev", 0)) + int(result.info.get("nfev", 0))
-        result = dataclasses.replace(more, info={**more.info, "x0": first_start, "nfev": nfev,
-                                                 "resumed": int(result.info.get("resumed", 0)) + 1})
+        runs = int(result.info.get("resumed", 0)) + 1
+        if gain > 0:  # further down: on from there
+            result = dataclasses.replace(more, info={**more.info, "x0": first_start, "nfev": nfev, "resumed": runs})
+        else:  # the restart ended no lower: the fit stays where it was, its budget counted
+            result = dataclasses.replace(result, info={**result.info, "nfev": nfev, "resumed": runs})
         if gain <= ftol * max(cost(result), 1e-300):
             if result.status == 0:  # a whole budget lowered the cost by less than ftol: scipy's own test
                 result = dataclasses.replace(result, status=2, message=(
                     f"`ftol` termination condition is satisfied across a restart (a budget of "
-                    f"{options.get('max_nfev')} evaluations from where the last stopped lowered the cost by "
-                    f"{gain / max(cost(result), 1e-300):.1e} of it)"))
+                    f"{options.get('max_nfev')} evaluations from where the fit stopped lowered the cost by "
+                    f"{max(gain, 0.0) / max(cost(result), 1e-300):.1e} of it)"))
             break
     return result
