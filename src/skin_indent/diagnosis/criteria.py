@@ -45,9 +45,9 @@ def unmoved(rung: Rung) -> str | None:
     """
     if rung.moved:
         return None
-    return (f"{NOT_FITTED}: the fit of {rung.model} ended at its start values from every start tried (it did not "
-            "move, so it tests nothing); fit it alone with a prior on what you know (--prior NAME=MEAN:SD), or with "
-            "another measurement")
+    return (f"{NOT_FITTED}: the fit of {rung.model} ended at its start values (the simpler model's optimum, the "
+            "added effect doing nothing), its other starts having found nothing lower: it tests nothing; fit it "
+            "alone with a prior on what you know (--prior NAME=MEAN:SD), or with another measurement")
 
 
 

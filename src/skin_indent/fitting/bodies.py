@@ -58,7 +58,8 @@ def _sd(rung, value_of) -> float:
         up[j] += step
         down[j] -= step
         try:
-            d = value_of(model.model_parameters(up)) - value_of(model.model_parameters(down))
+            with np.errstate(invalid="ignore", over="ignore"):  # a ratio that turns infinite: no derivative
+                d = value_of(model.model_parameters(up)) - value_of(model.model_parameters(down))
         except (ValueError, ZeroDivisionError, OverflowError):
             return math.nan
         g[j] = d / (2 * step) if math.isfinite(d) else 0.0
