@@ -243,15 +243,16 @@ def test_the_final_model_gives_the_modulus_of_each_body_and_what_ratio_means():
     p = {"E_kPa": 17.54, "nu": 0.48, "thickness_mm": 1.0, "ratio": 2.92 / 17.54, "thickness2_mm": 3.0,
          "ratio2": 9.35 / 2.92}
     rung = SimpleNamespace(parameters=p, std={"E_kPa": 0.5, "thickness2_mm": 0.4, "ratio": 0.02, "ratio2": 0.5},
-                           effects=("layer", "layer"), model="neo-hooke+layer+layer", bound_model=None, x=None,
-                           covariance=None, free_names=())
+                           effects=("layer", "layer"), model="neo-hooke+layer+layer",
+                           reported_cov=(("E_kPa", "ratio", "ratio2"), np.diag([0.5**2, 0.02**2, 0.5**2])))
     b = bodies(rung)
     assert [round(x["E_kPa"], 6) for x in b["bodies"]] == [17.54, 2.92, 9.35]
     assert [x["thickness_mm"] for x in b["bodies"]] == [1.0, 3.0, None]
     assert b["ratio"] == RATIOS_MEANING and b["other"] == {}
     lines = body_lines(rung, SKIN_UNITS)
     assert lines[1].startswith("  top layer: E = 17.54 +- 0.5 kPa, thickness = 1 mm (held)")
-    assert "layer 2: E = 2.92" in lines[2] and "thickness = 3 +- 0.4 mm" in lines[2]
+    # E x ratio, independent errors: sqrt((ratio sd_E)^2 + (E sd_ratio)^2) = 0.36 kPa
+    assert "layer 2: E = 2.92 +- 0.36 kPa, thickness = 3 +- 0.4 mm" in lines[2]
     assert "below: half-space: E = 9.35" in lines[3]
     assert "ratio = E of the material below a layer / E of the layer" in lines[-1]
     rigid = SimpleNamespace(**{**vars(rung), "parameters": {**p, "ratio2": math.inf}})

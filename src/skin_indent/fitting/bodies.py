@@ -25,45 +25,19 @@ RATIO_MEANING = ("ratio = E of the material below a layer / E of the layer (rati
 RATIOS_MEANING = RATIO_MEANING + "; ratio2 the same for the second layer"
 
 
-def _full_covariance(rung):
-    """The covariance of the rung's whole fit vector (held values 0), or None."""
-    model, x = rung.bound_model, rung.x
-    if model is None or x is None:
-        return None
-    full = getattr(rung, "x_covariance", None)
-    if full is not None and np.shape(full) == (len(x), len(x)) and np.all(np.isfinite(full)):
-        return np.asarray(full, dtype=float)
-    names = list(model.parameter_names)
-    cov = np.asarray(rung.covariance, dtype=float)
-    idx = [names.index(n) for n in rung.free_names if n in names]
-    if cov.shape != (len(idx), len(idx)) or not np.all(np.isfinite(cov)):
-        return None
-    C = np.zeros((len(names), len(names)))
-    C[np.ix_(idx, idx)] = cov
-    return C
-
-
-def _sd(rung, value_of) -> float:
-    """Standard deviation of ``value_of(model parameters)`` by the delta method (NaN when unknown)."""
-    C = _full_covariance(rung)
-    if C is None:
-        return math.nan
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    g = np.zeros(x.size)
-    for j in range(x.size):
-        if not np.any(C[j]):
-            continue
-        step = 1e-6 * max(abs(x[j]), 1e-6)
-        up, down = x.copy(), x.copy()
-        up[j] += step
-        down[j] -= step
-        try:
-            with np.errstate(invalid="ignore", over="ignore"):  # a ratio that turns infinite: no derivative
-                d = value_of(model.model_parameters(up)) - value_of(model.model_parameters(down))
-        except (ValueError, ZeroDivisionError, OverflowError):
+def _sd(rung, chain: tuple) -> float:
+    """Standard deviation of E times the ratios ``chain`` by the delta method, from the covariance of the
+    reported parameters (:attr:`~skin_indent.fitting.rung.Rung.reported_cov`); NaN where unknown."""
+    names, V = getattr(rung, "reported_cov", None) or ((), np.zeros((0, 0)))
+    p = rung.parameters
+    value = p["E_kPa"] * math.prod(p[n] for n in chain)
+    g = np.zeros(len(names))
+    for k in ("E_kPa", *chain):
+        if k in names:
+            g[names.index(k)] += value / p[k]  # d(E r1 r2...)/dk = product / k
+        elif k in rung.std:  # a parameter with a variance the covariance does not hold
             return math.nan
-        g[j] = d / (2 * step) if math.isfinite(d) else 0.0
-    var = float(g @ C @ g)
+    var = float(g @ np.asarray(V, dtype=float) @ g) if len(names) else math.nan
     return math.sqrt(var) if var >= 0 else math.nan
 
 
@@ -73,7 +47,7 @@ def bodies(rung) -> dict:
     Parameters
     ----------
     rung : Rung
-        A fitted model (its ``parameters``, ``std``, ``effects``, ``bound_model``, ``x``, ``covariance``).
+        A fitted model (its ``parameters``, ``std``, ``effects``, ``model`` and ``reported_cov``).
 
     Returns
     -------
@@ -92,11 +66,13 @@ def bodies(rung) -> dict:
     def modulus(chain: tuple) -> tuple:
         """E times the ratios ``chain`` and its sd: None where every factor is held, NaN where unknown."""
         value = E * math.prod(p[n] for n in chain)
+        if not math.isfinite(value):  # a rigid base: no sd
+            return value, math.nan
         if all(n not in std for n in ("E_kPa", *chain)):
             return value, None
         if not chain:
             return value, float(std["E_kPa"])
-        return value, _sd(rung, lambda q: q["E_kPa"] * math.prod(q[n] for n in chain))
+        return value, _sd(rung, chain)
 
     for k in range(1, layers + 1):
         t, r = numbered("thickness_mm", k), numbered("ratio", k)

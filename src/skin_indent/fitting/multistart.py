@@ -18,7 +18,7 @@ from ..measurement import CurveSet
 from ..measurement.scale import joined
 from ..models import ComposedModel, JointModel
 from .identification import hertz_modulus
-from .rung import MODEL_ERROR, NO_STRUCTURE, Rung, evidence, structure_sentence
+from .rung import MODEL_ERROR, NO_STRUCTURE, Rung, evidence, reported_covariance, structure_sentence
 from .knowledge import held_coordinates, prior_rows, prior_summary
 from .scale_checks import check_points
 from .ended import how_it_ended, reported_message, stalled
@@ -449,7 +449,8 @@ class Fitter:
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
-                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)), x_covariance=cov)
+                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)),
+                    reported_cov=reported_covariance(model, x, cov))
         self.fits[key] = rung
         return rung
 

@@ -65,10 +65,12 @@ class Rung(IdentificationResult):
         How the fit ended where that is not a result (:func:`~skin_indent.fitting.ended.how_it_ended`:
         its evaluation budget, its start values, a parameter at the edge of its surface or at a bound);
         ``flags`` their texts, ``moved`` whether it left its start.
-    x_covariance : ndarray
-        The covariance of the whole fitted vector ``x`` that ``std`` comes from (held values 0; a
-        parameter on a face of its range held there), for quantities derived from several parameters
-        (:func:`~skin_indent.fitting.bodies.bodies`: E of each body).
+    reported_cov : tuple
+        ``(names, V)``: the covariance of ``parameters`` by the names results report, from that of the
+        whole fitted vector that ``std`` comes from (:func:`reported_covariance`; a parameter on a face
+        of its range held there): the correlations reports list, and quantities derived from several
+        parameters (:func:`~skin_indent.fitting.bodies.bodies`: E of each body). Plain numbers: it
+        stays with a rung whose model is left out.
     """
 
     BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
@@ -90,7 +92,7 @@ class Rung(IdentificationResult):
     curve_rms_mN: tuple = ()
     curve_white: tuple = ()
     ended: tuple = ()
-    x_covariance: np.ndarray = field(default=None, repr=False)
+    reported_cov: tuple = ()
 
     @property
     def flags(self) -> tuple:
@@ -126,46 +128,45 @@ class Rung(IdentificationResult):
         return self.rms_mN
 
 
-def reported_correlations(rung) -> tuple:
-    """The correlations of a rung's parameters under the names results report (``ratio``, not the fit's
-    ``compliance``): ``((name, name, r), ...)`` for every pair that some free coordinate moves, by the
-    delta method from the fit's covariance (a sign and a size the fit's coordinates need not share:
-    ``ratio`` = 1 / ``compliance``). Infinite values (a rigid base) and held values have none."""
-    model, x = rung.bound_model, rung.x
-    if model is None or x is None or not hasattr(model, "model_parameters"):
-        return tuple((a, b, r) for a, b, r in IdentificationResult.correlation_pairs(rung))
-    x = np.asarray(x, dtype=float)
-    names = list(model.parameter_names)
-    idx = [names.index(n) for n in rung.free_names]
-    C = np.zeros((x.size, x.size))
-    cov = np.asarray(rung.covariance, dtype=float)
-    if cov.shape != (len(idx), len(idx)) or not np.all(np.isfinite(cov)):
-        return ()
-    C[np.ix_(idx, idx)] = cov
+def reported_covariance(model, x, cov) -> tuple:
+    """The covariance of a fit's parameters under the names results report (``ratio``, not the fit's
+    ``compliance``), by the delta method: ``(names, V)`` for the finite parameters some coordinate
+    with a variance moves (``((), empty)`` where ``cov``, the covariance of the whole vector ``x``, is
+    not finite). Held values and infinite ones (a rigid base) are left out."""
+    empty = ((), np.zeros((0, 0)))
+    if model is None or x is None or cov is None or not hasattr(model, "model_parameters"):
+        return empty
+    x, C = np.asarray(x, dtype=float), np.asarray(cov, dtype=float)
+    if C.shape != (x.size, x.size) or not np.all(np.isfinite(C)):
+        return empty
     at = model.model_parameters(x)
     keys = [k for k, v in at.items() if math.isfinite(v)]
     G = np.zeros((len(keys), x.size))
-    for j in idx:
+    for j in np.flatnonzero(np.any(C != 0, axis=0)):
         step = 1e-6 * max(abs(x[j]), 1e-6)
         up, down = x.copy(), x.copy()
         up[j] += step
         down[j] -= step
         try:
-            a, b = model.model_parameters(up), model.model_parameters(down)
+            with np.errstate(invalid="ignore", over="ignore"):
+                a, b = model.model_parameters(up), model.model_parameters(down)
+                diffs = [a[k] - b[k] for k in keys]
         except (ValueError, ZeroDivisionError, OverflowError):
-            return ()
-        for i, k in enumerate(keys):
-            d = a[k] - b[k]
-            G[i, j] = d / (2 * step) if math.isfinite(d) else 0.0
+            return empty
+        G[:, j] = [d / (2 * step) if math.isfinite(d) else 0.0 for d in diffs]
     moving = [i for i in range(len(keys)) if np.any(G[i] != 0)]
-    V = G[moving] @ C @ G[moving].T
+    return tuple(keys[i] for i in moving), G[moving] @ C @ G[moving].T
+
+
+def reported_correlations(rung) -> tuple:
+    """The correlations of a rung's parameters under the names results report (``ratio``, not the fit's
+    ``compliance``): ``((name, name, r), ...)`` for every pair with a variance, from
+    :attr:`Rung.reported_cov` (a sign and a size the fit's coordinates need not share: ``ratio`` =
+    1 / ``compliance``)."""
+    names, V = rung.reported_cov or ((), np.zeros((0, 0)))
     sd = np.sqrt(np.clip(np.diag(V), 0.0, None))
-    out = []
-    for p, i in enumerate(moving):
-        for q in range(p + 1, len(moving)):
-            if sd[p] > 0 and sd[q] > 0:
-                out.append((keys[i], keys[moving[q]], float(np.clip(V[p, q] / (sd[p] * sd[q]), -1.0, 1.0))))
-    return tuple(out)
+    return tuple((names[p], names[q], float(np.clip(V[p, q] / (sd[p] * sd[q]), -1.0, 1.0)))
+                 for p in range(len(names)) for q in range(p + 1, len(names)) if sd[p] > 0 and sd[q] > 0)
 
 
 def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:
