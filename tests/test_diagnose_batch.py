@@ -314,7 +314,9 @@ def test_cli_batch_of_a_force_map_and_a_bad_file(force_map, map_rows, gallery_ca
     assert out.strip().splitlines() == [*(verdict_line(r) for r in map_rows), f"broken.csv: error: {_error_of(bad)}",
                                         (f"7 curves: 2 failed; verdicts: failed 2, none 2, offset 2, stiffening 1; "
                                          f"wrote {tmp_path / 'v.tsv'}")]
-    assert err == ""
+    # the only warnings: how a curve's final fit ended where its values are not a result (fitting.ended)
+    assert all(line.startswith("skin-indent diagnose: warning: ") and "not a result" in line
+               for line in err.splitlines()), err
     prov = read_provenance(tmp_path / "v.tsv")
     assert prov["command"] == ["skin-indent", *argv] and "api" not in prov
     table = [line.split("\t") for line in (tmp_path / "v.tsv").read_text().splitlines() if not line.startswith("#")]

@@ -209,7 +209,7 @@ def _row_of(base: dict, result, surface) -> BatchRow:
         max_indentation_mm=float(np.max(p.depth_mm) - result.contact_point_mm), n_points=int(result.n_points),
         rms_mN=result.rms_mN, noise_mN=q.get("noise_mN", math.nan), misfit=q.get("misfit", math.nan),
         white=q.get("white"), verdict=q.get("verdict", ""),
-        flags=tuple(result.flags) + (() if result.success else (f"not converged: {result.message}",)),
+        flags=tuple(result.flags),  # how the fit ended among them (fitting.ended: budget, start, edge, bound)
         surface=_surface_hash(surface) if surface is not None else "", model=result.model,
         parameters=dict(result.parameters), std=dict(result.std))
 

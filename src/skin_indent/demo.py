@@ -33,6 +33,7 @@ import numpy as np
 from .data import bundled_path
 from .runtime.context import Context
 from .diagnosis import diagnose
+from .fitting.bodies import body_lines
 from .report import write_report
 from .fitting import PAPER_TOLERANCE, identify, surface_for
 from .measurement import load_csv, prepare
@@ -118,6 +119,10 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
         diag = diagnose(measurement, context=context)
         for f in diag.ladder:
             echo(f"  {f.model:<32} RMS {f.rms_mN:.4f} mN  {'white' if f.white else 'structured'}")
+            for flag in f.flags:  # how its fit ended, where that is not a result (fitting.ended)
+                echo(f"    flag: {flag}")
+        for line in body_lines(diag.current, diag.units):  # the final model: E of each body, thicknesses
+            echo(line)
         echo(diag.sentence())
         # the report and demo.json record the diagnosis's surfaces too (demo.png: the paper's surface alone)
         prov = {**prov, "surface": surface_identity([surface, *diag.surfaces])}
@@ -133,6 +138,10 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
             for f in joint.ladder:
                 rms = ", ".join(f"{v:.4f}" for v in f.curve_rms_mN)
                 echo(f"  {f.model:<32} RMS ({rms}) mN  {'white' if f.white else 'structured'}")
+                for flag in f.flags:
+                    echo(f"    flag: {flag}")
+            for line in body_lines(joint.current, joint.units):
+                echo(line)
             echo(joint.sentence())
             both = provenance(command=command, inputs=[source, bundled_path(SECOND_CURVE)],
                               settings={"radius_mm": [RADIUS_MM, float(second.radius_mm)], "diagnosis": "joint"})

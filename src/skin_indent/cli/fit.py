@@ -241,7 +241,7 @@ def _sample_output(args, result, prov) -> int:
     for flag in result.flags:
         print(f"skin-indent fit: warning: {label}: {flag}", file=sys.stderr)
     if not result.success:
-        print(f"skin-indent fit: warning: {label}: the fit failed", file=sys.stderr)
+        print(f"skin-indent fit: warning: {label}: {_not_converged(result)}", file=sys.stderr)
         return EXIT_FLAGGED
     return EXIT_FLAGGED if (args.strict and result.flags) else EXIT_OK
 
@@ -332,9 +332,18 @@ def _fit_output(args, path, result, prov) -> int:
     for flag in result.flags:
         print(f"skin-indent fit: warning: {path}: {shown_in(flag, units)}", file=sys.stderr)
     if not result.success:  # a failed curve (exit 3 as a flagged one), said on stderr
-        print(f"skin-indent fit: warning: {path}: the fit failed", file=sys.stderr)
+        print(f"skin-indent fit: warning: {path}: {_not_converged(result)}", file=sys.stderr)
         return EXIT_FLAGGED
     return EXIT_FLAGGED if (args.strict and result.flags) else EXIT_OK
+
+
+def _not_converged(result) -> str:
+    """Why a fit is not a result, in one line with the next step (the flags above say it per parameter)."""
+    why = getattr(result, "message", "")
+    why = f" ({why})" if why else ""
+    return (f"the fit did not converge{why}: its values are where it stopped, not a result; next: "
+            "hold a parameter you know (--fix NAME=VALUE) or weigh it (--prior NAME=MEAN:SD), or fit a simpler "
+            "model (the flags above name the parameters)")
 
 
 def _fit_batch(args, surface, fixed, window, x0, context) -> int:

@@ -222,7 +222,7 @@ def _numbers(d) -> dict:
             "misfit": float(cur.rms_mN / d.noise_mN), "white": bool(cur.white), "base_rms_mN": float(d.base.rms_mN),
             "confounded_with": tuple(d.confounded_with), "untried": tuple(d.untried),
             "undetermined": tuple(d.not_determined), "parameters": dict(cur.parameters), "std": dict(cur.std),
-            "flags": tuple(str(n) for n in d.notes)}
+            "flags": tuple(str(n) for n in d.notes) + tuple(str(f) for f in cur.flags)}  # + how its fit ended
 
 
 @contextlib.contextmanager

@@ -34,6 +34,22 @@ BEAM = 2
 NOT_FITTED = "not fitted"
 
 
+def unmoved(rung: Rung) -> str | None:
+    """Why a fitted candidate decides nothing, or None when it may be compared with its rivals.
+
+    A fit that ended at its start values (:attr:`Rung.moved`; the fitter has tried its other starts
+    already, :meth:`~skin_indent.fitting.multistart.Fitter.fit`) did not test the effect it adds: its
+    RMS and BIC are those of the start, often the simpler model's optimum with the effect doing
+    nothing. It is reported as not fitted (``"not fitted: ..."``), never ranked, so it can neither be
+    named nor reject a rival.
+    """
+    if rung.moved:
+        return None
+    return (f"{NOT_FITTED}: the fit of {rung.model} ended at its start values (the simpler model's optimum, the "
+            "added effect doing nothing), its other starts having found nothing lower: it tests nothing; fit it "
+            "alone with a prior on what you know (--prior NAME=MEAN:SD), or with another measurement")
+
+
 
 
 #: ``std_source`` of a standard deviation from the fit's own covariance (its model's Jacobian)

@@ -17,6 +17,7 @@ import numpy as np
 from ..effects import EFFECTS
 from ..measurement import PreparedCurve
 from ..measurement.scale import PACKAGE_UNITS, DisplayUnits, display_units, shown_in
+from ..fitting.bodies import bodies, body_lines
 from ..fitting.knowledge import DETERMINED_BY
 from ..fitting.rung import MODEL_ERROR, Rung
 from ..runtime.json_io import jsonable
@@ -372,9 +373,11 @@ class Diagnosis:
             how = f", finite elements in the loop ({f.forward_runs} runs)" if f.forward_runs else ""
             lines.append(f"  {f.model:<28} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
                          f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}{how}")
+            lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]  # how its fit ended (fitting.ended)
         for f in self.alternatives:
             lines.append(f"  (other explanation) {f.model:<20} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
                          f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
+            lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]
         for name, k in self.current.priors.items():
             c = u.factor(name)
             lines.append(f"  what you know, {u.name(name)}: prior {k['prior_mean'] * c:.4g} +- "
@@ -395,6 +398,7 @@ class Diagnosis:
             for f in step.ranking:
                 lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
                              f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
+                lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]
             for k, v in step.not_detectable.items():
                 if v.startswith("not fitted"):
                     lines.append(f"  +{k:<13} {shown_in(v, u)}")
@@ -420,6 +424,7 @@ class Diagnosis:
         lines.append(self.verdicts())
         if self.provisional:
             lines.append(f"provisional: {self._untried_clause()}")
+        lines += body_lines(self.current, u)  # the final model: E of each body, thicknesses (fitting.bodies)
         lines.append(self.sentence(u))
         lines += [f"note: {shown_in(n, u)}" for n in self.notes]
         return "\n".join(lines)
@@ -450,7 +455,7 @@ class Diagnosis:
             return {"model": f.model, "effects": list(f.effects), "parameters": f.parameters, "std": f.std,
                     "std_source": sources(f), "rms_mN": f.rms_of_curves, "bic": f.bic, "white": f.white,
                     "structure": f.structure, "forward_runs": f.forward_runs, "at_bounds": list(f.at_bounds),
-                    "priors": f.priors}
+                    "priors": f.priors, "flags": list(f.flags)}
 
         def candidate(step, f):
             return {"effect": f.effects[-1], "delta_bic": step.rung.bic - f.bic, **f.summary(),
@@ -502,6 +507,7 @@ class Diagnosis:
             "suggested_measurement": self.suggested_measurement,
             "sentence": self.sentence(PACKAGE_UNITS),
             "ladder": [rung(f) for f in self.ladder],
+            "final_model": bodies(cur),
             "notes": list(self.notes),
             "provenance": dict(self.provenance),
         })

@@ -83,7 +83,7 @@ from ..models.composed import at_physical_limit
 from ..models.joint import split_name
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
 from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RIVAL, STRONG, Scores, explained,
-                       settled)
+                       settled, unmoved)
 from .result import Diagnosis, Step
 from .segment_misfit import segment_misfits
 from ..inverse.residuals import effective_sample_size
@@ -131,6 +131,8 @@ def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
         f = fitted[key + (name,)]
         if isinstance(f, ValueError):
             not_detectable[name] = f"{NOT_FITTED}: {f}"
+        elif unmoved(f) is not None:  # a fit that did not move tests nothing: never ranked (criteria.unmoved)
+            not_detectable[name] = unmoved(f)
         else:
             tried.append(f)
     best = min([current, *tried], key=lambda f: f.chi2_weighted)

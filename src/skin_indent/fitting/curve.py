@@ -26,6 +26,7 @@ from ..measurement import PreparedCurve, prepare
 from ..measurement.scale import Quantity, UnitText, afm_scale, display_units, shown_in
 from ..measurement.preparation import SKIN_RADIUS_MM
 from .scale_checks import MISFIT_FLAG, check_points, scale_flags  # noqa: F401 - MISFIT_FLAG read here
+from .ended import how_it_ended, verdict as ended_verdict
 from ..models import ComposedModel, HertzModel
 from ..runtime.json_io import jsonable
 
@@ -92,6 +93,13 @@ class CurveFit(IdentificationResult):
     priors: dict = field(default_factory=dict)
     error_model: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict, repr=False)
+    #: ``((name, name, r), ...)`` under the names ``parameters`` uses (a chosen model's fit:
+    #: :func:`~skin_indent.fitting.rung.reported_correlations`); None: the fit's own coordinates
+    correlations: tuple | None = None
+
+    def correlation_pairs(self) -> list:
+        """The correlations :meth:`report` lists, under the names ``parameters`` uses."""
+        return super().correlation_pairs() if self.correlations is None else list(self.correlations)
 
     @property
     def trusted(self) -> bool:
@@ -143,6 +151,8 @@ class CurveFit(IdentificationResult):
             "priors": dict(self.priors),
             "error_model": dict(self.error_model),
             "provenance": dict(self.provenance),
+            # the correlations under the names ``parameters`` uses (``covariance`` is in the fit's coordinates)
+            "correlations": [{"a": a, "b": b, "r": r} for a, b, r in self.correlation_pairs()],
         })
         return jsonable(out)
 
@@ -221,12 +231,14 @@ def _e_star(result) -> tuple[float, float]:
     return E / (1 - nu**2), math.sqrt(var) if var >= 0 else math.nan
 
 
-def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | None = None) -> dict:
+def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | None = None, ended=()) -> dict:
     """The fit's misfit against a noise level independent of the model, and its whiteness.
 
     ``noise`` = ``(noise_mN, source)`` where the fit already has one (default the curve's,
     :meth:`~skin_indent.measurement.PreparedCurve.noise_mN`); ``white`` where the fit already
-    judged its residual (default judged here at that noise).
+    judged its residual (default judged here at that noise). ``ended``: how the fit ended where
+    that is not a result (:func:`~skin_indent.fitting.ended.how_it_ended`): the verdict then says
+    so (:func:`~skin_indent.fitting.ended.verdict`), whatever the misfit.
     """
     if noise is None:
         try:
@@ -249,6 +261,9 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
         verdict = "structured misfit: try `skin-indent diagnose`"
     else:
         verdict = "fits to the noise"
+    stopped = ended_verdict(ended)  # how the fit ended says first that its values are not a result
+    if stopped:
+        verdict = stopped if verdict in ("fits to the noise", "fits below the noise level") else f"{stopped}; {verdict}"
     return {"noise_mN": noise, "noise_source": source, "misfit": misfit, "white": bool(white),
             "verdict": verdict}
 
@@ -473,9 +488,11 @@ def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm,
     if "nu" in fixed:
         notes.append(UnitText("nu fixed at {nu:g}; E = {E:.5g}", nu=fixed["nu"],
                               E=Quantity(result.parameters["E_kPa"], "kPa")))
-    flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
-             for name in result.info.get("active_bounds", ())]
-    q = quality(prepared, result.residuals_mN, result.n_free, noise=independent)
+    # every face of the half-space's ranges is its surface's edge (nu at the top of its nodes too: the
+    # paper's path flags it, as it always has)
+    ended = how_it_ended(result, model, limits=False)
+    flags = [e.text for e in ended]
+    q = quality(prepared, result.residuals_mN, result.n_free, noise=independent, ended=ended)
     if q and q["misfit"] > MISFIT_FLAG:
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its modulus is not to be trusted")

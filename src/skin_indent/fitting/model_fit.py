@@ -26,12 +26,11 @@ from .curve import CurveFit, quality, with_scale_flags
 from .identification import hertz_modulus, run_method
 from .knowledge import DETERMINED_BY
 from .multistart import Fitter
-from .rung import evidence
+from .rung import evidence, reported_correlations
 from .sample_fit import sample_fit_of
 from .scale_checks import MISFIT_FLAG
 from .surfaces import interpolation_flags
 from ..models import HertzModel
-from ..models.composed import at_physical_limit
 from ..runtime.context import context_of
 from ..runtime.provenance import surface_identity
 
@@ -236,9 +235,9 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     g = np.array([1 / (1 - nu**2), 2 * E * nu / (1 - nu**2) ** 2])
     C = np.array([[sd_E**2, rho * sd_E * sd_nu], [rho * sd_E * sd_nu, sd_nu**2]])
     var = float(g @ C @ g)
-    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=rung.white)
-    flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
-             for name in rung.at_bounds if not _physical(rung, name)]
+    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=rung.white,
+                ended=rung.ended)
+    flags = list(rung.flags)  # how the fit ended (fitting.ended), as the ladder shows it
     if q and q["misfit"] > MISFIT_FLAG:
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its parameters are not to be trusted")
@@ -263,9 +262,8 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                       e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
                       flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
-                      priors=dict(rung.priors), error_model=fitter.error_model())
-    return with_scale_flags(result, at_bounds=tuple(rung.at_bounds))
+                      priors=dict(rung.priors), error_model=fitter.error_model(),
+                      correlations=reported_correlations(rung))
+    ended = tuple(n for e in rung.ended for n in e.parameters)  # by the names results report (ratio)
+    return with_scale_flags(result, at_bounds=tuple(rung.at_bounds) + ended)
 
-
-def _physical(rung, name: str) -> bool:
-    return at_physical_limit(rung.bound_model, rung.x, name)

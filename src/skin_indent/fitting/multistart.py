@@ -18,9 +18,11 @@ from ..measurement import CurveSet
 from ..measurement.scale import joined
 from ..models import ComposedModel, JointModel
 from .identification import hertz_modulus
-from .rung import MODEL_ERROR, NO_STRUCTURE, Rung, evidence, structure_sentence
+from .rung import MODEL_ERROR, NO_STRUCTURE, Rung, evidence, reported_covariance, structure_sentence
 from .knowledge import held_coordinates, prior_rows, prior_summary
 from .scale_checks import check_points
+from .ended import how_it_ended, reported_message, stalled
+from .resume import cost as _cost, resumed
 from .starts import MAX_STARTS, screen, start_vectors
 from .surfaces import elastic_core
 
@@ -41,6 +43,8 @@ FE_PROBE = 5
 #: relative tolerance of such a fit on the cost and the parameters: 1e-4 of a chi-square of ~n
 #: moves a BIC by ~0.01, far below the differences diagnosis acts on
 FE_TOL = 1e-4
+#: function evaluations of a fit on response surfaces (None: scipy's default, 100 per parameter)
+SURFACE_MAX_EVALUATIONS = None
 
 
 class Fitter:
@@ -349,24 +353,36 @@ class Fitter:
             nested = starts[0] if self.warm(key) is not None else None
             starts = screen(self, model, starts, FE_PROBES, nested=nested)
             options = dict(ftol=FE_TOL, xtol=FE_TOL, gtol=1e-8, max_nfev=FE_MAX_EVALUATIONS)
-        best, first = None, None
+        elif SURFACE_MAX_EVALUATIONS is not None:
+            options = dict(max_nfev=SURFACE_MAX_EVALUATIONS)
+        best, first, still, still_at = None, None, None, None
         for i, x0 in enumerate(starts):
             try:
                 res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **known, **options)
             except ValueError:  # a run of this start's fit failed: the next start
                 continue
-            if best is None or _cost(res) < _cost(best):
+            if stalled(res, model):  # a stationary start: kept only if no start that moved does as well
+                if still is None or _cost(res) < _cost(still):
+                    still, still_at = res, i
+            elif best is None or _cost(res) < _cost(best):
                 best, first = res, i
             if looped:
                 break
+        if still is not None and (best is None or _cost(best) > _cost(still) * (1 + FE_TOL)):
+            best, first = still, still_at
         noise = float(np.sqrt(np.mean(self.sigma(d.force_mN) ** 2)))  # with the model error
-        if looped and best is not None and best.rms_mN > FE_RETRY * noise and best.status == 0:
-            # stopped by its budget short of the noise: on from where it got (measured: two layers
-            # on a rigid base stopped at 0.065 mN on its way to the truth's 0.041 mN, noise 0.03)
+        if best is not None and best.status == 0:
+            # stopped by its budget: on from where it got (measured: two layers on a rigid base
+            # stopped at 0.065 mN on its way to the truth's 0.041 mN, noise 0.03)
             best = self._resumed(model, best, known, options)
-        if looped and best is not None and best.rms_mN > FE_RETRY * noise:
-            # the best-ranked start led to a fit that does not reach the noise: a short fit from
-            # each of the other screened starts, and the best of those, if better, to the end
+        elif looped and best is not None and best.status in (2, 3) and best.rms_mN > FE_RETRY * noise:
+            # stopped by its step or cost tolerance short of the noise: the trust region may have
+            # shrunk on the way; a fresh one from the end goes on if there is further to go
+            best = self._resumed(model, best, known, options, early=True)
+        if looped and best is not None and (best.rms_mN > FE_RETRY * noise or stalled(best, model)):
+            # the best-ranked start led to a fit that does not reach the noise, or did not move: a
+            # short fit from each of the other screened starts, and the best of those, if better (or
+            # the first that moved, for one that did not), to the end
             probes = []
             for x0 in starts[first + 1:]:
                 try:
@@ -374,8 +390,8 @@ class Fitter:
                                                     **{**options, "max_nfev": FE_PROBE}))
                 except ValueError:
                     continue
-            lead = min(probes, key=_cost, default=None)
-            if lead is not None and _cost(lead) < _cost(best):
+            lead = min((p for p in probes if not stalled(p, model)), key=_cost, default=None)
+            if lead is not None and (_cost(lead) < _cost(best) or stalled(best, model)):
                 if lead.status == 0:  # stopped by its budget: on from where it got
                     lead = self._resumed(model, lead, known, options)
                 best = lead if _cost(lead) < _cost(best) else best
@@ -427,27 +443,21 @@ class Fitter:
         analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
         curve_rms, curve_white = self._per_curve(r, s, best.n_free)
         base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
-        base.update(parameters=params, std=std, bic=math.nan)
+        base.update(parameters=params, std=std, bic=math.nan, message=reported_message(best, model, x))
         rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
-                    curve_white=curve_white)
+                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)),
+                    reported_cov=reported_covariance(model, x, cov))
         self.fits[key] = rung
         return rung
 
-    def _resumed(self, model, result, known: dict, options: dict):
-        """A fit in the loop that stopped by its budget (``status`` 0), fitted on from where it got
-        with the same budget: the better of the two (a run that fails leaves ``result``)."""
-        lo, hi = model.bounds
-        x = np.array([result.parameters[n] for n in model.parameter_names])
-        try:
-            more = fit_least_squares(model, self.data.depth_mm, self.data.force_mN, np.clip(x, lo, hi),
-                                     noise_mN=self.noise_mN, **known, **options)
-        except ValueError:
-            return result
-        return more if _cost(more) < _cost(result) else result
+    def _resumed(self, model, result, known: dict, options: dict, early: bool = False):
+        """:func:`~.resume.resumed` on this fitter's points (the fit's own ``known`` and ``options``)."""
+        return resumed(model, self.data.depth_mm, self.data.force_mN, result, noise_mN=self.noise_mN, known=known,
+                       options=options, early=early)
 
     def _per_curve(self, residual, sigma, n_free: int) -> tuple[tuple, tuple]:
         """Each curve's RMS residual (mN) and whether its residual alone is white (one curve: the fit's)."""
@@ -488,8 +498,3 @@ def in_loop(model) -> bool:
 def forward_runs(model) -> int:
     """Finite-element runs made so far by the model's cores (0 for surfaces)."""
     return sum(getattr(c, "runs", 0) for c in model.cores)
-
-
-def _cost(result) -> float:
-    """What a fit minimises: the data's chi-square plus the priors' (their -2 ln posterior up to a constant)."""
-    return float(result.chi2 + result.info.get("prior_chi2", 0.0))

@@ -61,6 +61,16 @@ class Rung(IdentificationResult):
         The RMS residual of each curve (mN), in input order (one curve: ``(rms_mN,)``).
     curve_white : tuple of bool
         Whether each curve's residual passes the whiteness tests on its own.
+    ended : tuple of Ending
+        How the fit ended where that is not a result (:func:`~skin_indent.fitting.ended.how_it_ended`:
+        its evaluation budget, its start values, a parameter at the edge of its surface or at a bound);
+        ``flags`` their texts, ``moved`` whether it left its start.
+    reported_cov : tuple
+        ``(names, V)``: the covariance of ``parameters`` by the names results report, from that of the
+        whole fitted vector that ``std`` comes from (:func:`reported_covariance`; a parameter on a face
+        of its range held there): the correlations reports list, and quantities derived from several
+        parameters (:func:`~skin_indent.fitting.bodies.bodies`: E of each body). Plain numbers: it
+        stays with a rung whose model is left out.
     """
 
     BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
@@ -81,6 +91,18 @@ class Rung(IdentificationResult):
     priors: dict = field(default_factory=dict)
     curve_rms_mN: tuple = ()
     curve_white: tuple = ()
+    ended: tuple = ()
+    reported_cov: tuple = ()
+
+    @property
+    def flags(self) -> tuple:
+        """How the fit ended, where that is not a result (:attr:`ended`): what every output shows."""
+        return tuple(e.text for e in self.ended)
+
+    @property
+    def moved(self) -> bool:
+        """The fit left its start values (a fit that did not move decides nothing)."""
+        return not any(e.kind == "start" for e in self.ended)
 
     @property
     def residual_mN(self) -> np.ndarray:
@@ -94,7 +116,8 @@ class Rung(IdentificationResult):
         """JSON-safe summary of the rung."""
         return jsonable({"model": self.model, "parameters": self.parameters, "std": self.std,
                          "rms_mN": self.rms_of_curves, "bic": self.bic, "white": self.white,
-                         "n_parameters": self.n_parameters, "structure": self.structure, "priors": self.priors})
+                         "n_parameters": self.n_parameters, "structure": self.structure, "priors": self.priors,
+                         "flags": list(self.flags)})
 
     @property
     def rms_of_curves(self):
@@ -103,6 +126,47 @@ class Rung(IdentificationResult):
         if len(self.curve_rms_mN) > 1:
             return [float(v) for v in self.curve_rms_mN]
         return self.rms_mN
+
+
+def reported_covariance(model, x, cov) -> tuple:
+    """The covariance of a fit's parameters under the names results report (``ratio``, not the fit's
+    ``compliance``), by the delta method: ``(names, V)`` for the finite parameters some coordinate
+    with a variance moves (``((), empty)`` where ``cov``, the covariance of the whole vector ``x``, is
+    not finite). Held values and infinite ones (a rigid base) are left out."""
+    empty = ((), np.zeros((0, 0)))
+    if model is None or x is None or cov is None or not hasattr(model, "model_parameters"):
+        return empty
+    x, C = np.asarray(x, dtype=float), np.asarray(cov, dtype=float)
+    if C.shape != (x.size, x.size) or not np.all(np.isfinite(C)):
+        return empty
+    at = model.model_parameters(x)
+    keys = [k for k, v in at.items() if math.isfinite(v)]
+    G = np.zeros((len(keys), x.size))
+    for j in np.flatnonzero(np.any(C != 0, axis=0)):
+        step = 1e-6 * max(abs(x[j]), 1e-6)
+        up, down = x.copy(), x.copy()
+        up[j] += step
+        down[j] -= step
+        try:
+            with np.errstate(invalid="ignore", over="ignore"):
+                a, b = model.model_parameters(up), model.model_parameters(down)
+                diffs = [a[k] - b[k] for k in keys]
+        except (ValueError, ZeroDivisionError, OverflowError):
+            return empty
+        G[:, j] = [d / (2 * step) if math.isfinite(d) else 0.0 for d in diffs]
+    moving = [i for i in range(len(keys)) if np.any(G[i] != 0)]
+    return tuple(keys[i] for i in moving), G[moving] @ C @ G[moving].T
+
+
+def reported_correlations(rung) -> tuple:
+    """The correlations of a rung's parameters under the names results report (``ratio``, not the fit's
+    ``compliance``): ``((name, name, r), ...)`` for every pair with a variance, from
+    :attr:`Rung.reported_cov` (a sign and a size the fit's coordinates need not share: ``ratio`` =
+    1 / ``compliance``)."""
+    names, V = rung.reported_cov or ((), np.zeros((0, 0)))
+    sd = np.sqrt(np.clip(np.diag(V), 0.0, None))
+    return tuple((names[p], names[q], float(np.clip(V[p, q] / (sd[p] * sd[q]), -1.0, 1.0)))
+                 for p in range(len(names)) for q in range(p + 1, len(names)) if sd[p] > 0 and sd[q] > 0)
 
 
 def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:

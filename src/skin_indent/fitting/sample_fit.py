@@ -20,10 +20,9 @@ import numpy as np
 
 from ..inverse import IdentificationResult
 from ..measurement.scale import display_units
-from ..models.composed import at_physical_limit
 from ..runtime.json_io import jsonable
 from .knowledge import DETERMINED_BY
-from .rung import evidence
+from .rung import evidence, reported_correlations
 from .surfaces import interpolation_flags
 from .scale_checks import MISFIT_FLAG, contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
 
@@ -63,6 +62,13 @@ class SampleFit(IdentificationResult):
     priors: dict = field(default_factory=dict)
     error_model: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict, repr=False)
+    #: ``((name, name, r), ...)`` under the names ``parameters`` uses (a chosen model's fit:
+    #: :func:`~skin_indent.fitting.rung.reported_correlations`); None: the fit's own coordinates
+    correlations: tuple | None = None
+
+    def correlation_pairs(self) -> list:
+        """The correlations :meth:`report` lists, under the names ``parameters`` uses."""
+        return super().correlation_pairs() if self.correlations is None else list(self.correlations)
 
     @property
     def trusted(self) -> bool:
@@ -79,7 +85,8 @@ class SampleFit(IdentificationResult):
         out.update({"model": self.model, "rms_mN": self.rms_of_curves, "rms_all_mN": self.rms_mN,
                     "curves": [dict(c) for c in self.curves], "flags": list(self.flags), "notes": list(self.notes),
                     "priors": dict(self.priors), "error_model": dict(self.error_model),
-                    "provenance": dict(self.provenance)})
+                    "provenance": dict(self.provenance),
+                    "correlations": [{"a": a, "b": b, "r": r} for a, b, r in self.correlation_pairs()]})
         return jsonable(out)
 
     def report(self, digits: int = 5, units=None) -> str:
@@ -113,8 +120,7 @@ class SampleFit(IdentificationResult):
 def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
     """The :class:`SampleFit` of a rung fitted to several curves: the numbers the diagnosis's ladder
     shows for that model, with each curve's data treatment, misfit and the flags."""
-    flags = [f"{name} at the bound of its range: the fit stopped there, the value is not a result"
-             for name in rung.at_bounds if not _physical(rung, name)]
+    flags = list(rung.flags)  # how the fit ended (fitting.ended), as the ladder shows it
     flags += modulus_flags(rung.parameters.get("E_kPa", math.nan))
     flags += interpolation_flags(rung.bound_model, rung.x)
     curves, predictions = [], []
@@ -137,7 +143,8 @@ def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
         flags += depth_ratio_flags(float((np.max(c.depth_mm) - contact) / c.radius_mm), float(c.radius_mm), where)
     n_contact = sum(contact_points(c, cv["contact_point_mm"]) for c, cv in zip(fitter.curves, curves))
     flags += points_flags(n_contact, int(rung.n_free))
-    flags += undetermined_flags(rung.parameters, rung.std, list(rung.std), rung.at_bounds)
+    flags += undetermined_flags(rung.parameters, rung.std, list(rung.std),
+                                tuple(rung.at_bounds) + tuple(n for e in rung.ended for n in e.parameters))
     for name, s in rung.priors.items():
         if s["in_tension"]:
             flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
@@ -153,8 +160,5 @@ def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
     base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
     return SampleFit(**base, model=rung.model, curves=curves, prepared=list(fitter.curves), prediction_mN=predictions,
                      flags=tuple(dict.fromkeys(flags)), notes=notes, priors=dict(rung.priors),
-                     error_model=fitter.error_model())
+                     error_model=fitter.error_model(), correlations=reported_correlations(rung))
 
-
-def _physical(rung, name: str) -> bool:
-    return at_physical_limit(rung.bound_model, rung.x, name)

@@ -248,13 +248,19 @@ class IdentificationResult:
                 lines.append(f"    {shown:<{width}} = {value:.{digits}g} +/- {sd:.3g}{rel}")
             else:
                 lines.append(f"    {shown:<{width}} = {value:.{digits}g} (fixed)")
-        if self.n_free > 1:
+        pairs = self.correlation_pairs()
+        if pairs:
             lines.append("[[Correlations]]")
-            for i in range(self.n_free):
-                for j in range(i + 1, self.n_free):
-                    lines.append(f"    C({u.name(self.free_names[i])}, {u.name(self.free_names[j])}) = "
-                                 f"{self.correlation[i, j]:+.4f}")
+            for a, b, r in pairs:
+                lines.append(f"    C({u.name(a)}, {u.name(b)}) = {r:+.4f}")
         return "\n".join(lines)
+
+    def correlation_pairs(self) -> list[tuple[str, str, float]]:
+        """``(name, name, correlation)`` of every pair of free parameters, as :meth:`report` lists them
+        (results whose ``parameters`` are not the fit's coordinates give them under the names
+        ``parameters`` uses)."""
+        return [(self.free_names[i], self.free_names[j], float(self.correlation[i, j]))
+                for i in range(self.n_free) for j in range(i + 1, self.n_free)]
 
     def __str__(self) -> str:
         return self.report()

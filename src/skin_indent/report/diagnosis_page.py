@@ -31,6 +31,7 @@ import numpy as np
 
 from ..runtime.atomic import atomic_write
 from ..diagnosis.criteria import FROM_FE
+from ..fitting.bodies import body_lines
 from ..measurement.scale import shown_in
 from ..runtime.json_io import dumps
 from .. import __version__
@@ -282,7 +283,8 @@ def page_context(diag, figure_paths=()) -> dict:
                    "fe": fe.get(k) == FROM_FE} for k, v in f.parameters.items()]
         rms = ", ".join(f"{v * kF:.4g}" for v in f.curve_rms_mN) if joint else f"{f.rms_mN * kF:.4g}"
         rows.append({"model": f.model, "rms": rms, "bic": f"{f.bic:.1f}", "white": bool(f.white),
-                     "parameters": params, "structure": shown_in(f.structure, u)})
+                     "parameters": params, "structure": shown_in(f.structure, u),
+                     "flags": [shown_in(t, u) for t in f.flags]})
     sample = [{"number": k + 1, "source": str(c.source), "points": c.n, "radius": f"{c.radius_mm * kL:g}",
                "noise": f"{s * kF:.4g}", "noise_source": w}
               for k, (c, s, w) in enumerate(zip(diag.curves, diag.noises_mN, diag.noise_sources))] if joint else []
@@ -302,6 +304,7 @@ def page_context(diag, figure_paths=()) -> dict:
         "models": rows, "not_detectable": [(k, shown_in(v, u)) for k, v in diag.not_detectable.items()],
         "fe_note": FROM_FE if FROM_FE in diag.std_source.values() else "",
         "notes": [shown_in(n, u) for n in diag.notes],
+        "final": body_lines(diag.current, u),
         "figures": [{"name": p.name, "alt": p.stem, "base64": base64.b64encode(p.read_bytes()).decode()}
                     for p in map(Path, figure_paths)],
     }

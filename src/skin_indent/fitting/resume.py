@@ -1,0 +1,84 @@
+"""A fit the optimizer stopped early, taken on from where it got with a fresh trust region.
+
+scipy's trust-region least squares stops at its evaluation budget (``status`` 0), or at its step or
+cost tolerance once its trust region has shrunk on the way through a curved valley. With the
+finite-element model in the loop both happen from starts a user would not choose (two layers, a
+layer with stiffening, several curves): :func:`resumed` restarts the fit from its end, which gives
+it a fresh trust region and the same budget, until it converges or stops gaining.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..inverse import fit_least_squares
+
+__all__ = ["RESUMES", "cost", "resumed"]
+
+#: a fit stopped by its budget goes on from where it got at most this many times while each restart
+#: lowers the cost by more than the fit's ``ftol``; one still stopped by its budget after them is
+#: flagged (:func:`~skin_indent.fitting.ended.how_it_ended`)
+RESUMES = 3
+
+
+def cost(result) -> float:
+    """What a fit minimises: the data's chi-square plus the priors' (their -2 ln posterior up to a constant)."""
+    return float(result.chi2 + result.info.get("prior_chi2", 0.0))
+
+
+def resumed(model, depth_mm, force_mN, result, *, noise_mN, known: dict, options: dict, early: bool = False):
+    """``result`` fitted on from where it stopped, with a fresh trust region and the same budget.
+
+    Up to :data:`RESUMES` restarts while the fit stops by its budget (``status`` 0) and each restart
+    lowers the cost by more than the fit's ``ftol``: the best fit reached (a restart whose run fails
+    leaves the last, one that ends higher keeps it). A restart that lowers the cost by less than
+    ``ftol`` of it over a whole budget, or not at all, meets scipy's own ``ftol`` test across the
+    two, and the fit is reported converged (``status`` 2, its message saying so). The result keeps the first start in
+    ``info["x0"]`` (it moved from there), counts every evaluation in ``info["nfev"]`` and the
+    restarts in ``info["resumed"]``.
+
+    Parameters
+    ----------
+    model : ComposedModel or JointModel
+    depth_mm, force_mN : ndarray
+        The fitted points.
+    result : IdentificationResult
+        The fit that stopped.
+    noise_mN : float
+    known : dict
+        ``fixed``, ``priors`` (and ``sigma_mN``) of the fit, as
+        :func:`~skin_indent.inverse.fit_least_squares` takes them.
+    options : dict
+        Its tolerances and budget (``ftol``, ``xtol``, ``gtol``, ``max_nfev``).
+    early : bool
+        Also restart once a fit that stopped by its step or cost tolerance (scipy's ``status`` 2 or 3).
+    """
+    lo, hi = model.bounds
+    ftol = options.get("ftol", 1e-8)
+    first_start = dict(result.info.get("x0", {}))
+    for k in range(RESUMES):
+        if result.status != 0 and not (early and k == 0):
+            break
+        x = np.array([result.parameters[n] for n in model.parameter_names])
+        try:
+            more = fit_least_squares(model, depth_mm, force_mN, np.clip(x, lo, hi), noise_mN=noise_mN, **known,
+                                     **options)
+        except ValueError:
+            break
+        gain = cost(result) - cost(more)
+        nfev = int(more.info.get("nfev", 0)) + int(result.info.get("nfev", 0))
+        runs = int(result.info.get("resumed", 0)) + 1
+        if gain > 0:  # further down: on from there
+            result = dataclasses.replace(more, info={**more.info, "x0": first_start, "nfev": nfev, "resumed": runs})
+        else:  # the restart ended no lower: the fit stays where it was, its budget counted
+            result = dataclasses.replace(result, info={**result.info, "nfev": nfev, "resumed": runs})
+        if gain <= ftol * max(cost(result), 1e-300):
+            if result.status == 0:  # a whole budget lowered the cost by less than ftol: scipy's own test
+                result = dataclasses.replace(result, status=2, message=(
+                    f"`ftol` termination condition is satisfied across a restart (a budget of "
+                    f"{options.get('max_nfev')} evaluations from where the fit stopped lowered the cost by "
+                    f"{max(gain, 0.0) / max(cost(result), 1e-300):.1e} of it)"))
+            break
+    return result
