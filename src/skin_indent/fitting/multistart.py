@@ -337,9 +337,9 @@ class Fitter:
         looped = in_loop(model)
         if self.joint:  # each point weighed by its own curve's noise
             known["sigma_mN"] = self.noise_points
-        # measured (module docstring, 2 cores): 50-100 runs and 1-3 minutes per fit in the loop
-        log.info("fitting %s %s%s", model.name, "with finite elements in the loop (typically 50-100 runs, 1-3 min on "
-                 "2 cores)" if looped else "on response surfaces",
+        # no time estimate: on a rerun the runs come from the run cache (measured, module docstring, 2 cores:
+        # 50-100 runs and 1-3 minutes per fit in the loop from an empty cache)
+        log.info("fitting %s %s%s", model.name, "with finite elements in the loop" if looped else "on response surfaces",
                  f" to {len(self.curves)} curves of one sample" if self.joint else "")
         if looped:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
             # not from the nested start nor from starts equivalent to it: there the combination is

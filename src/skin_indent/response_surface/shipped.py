@@ -283,10 +283,10 @@ def stamp(directory: Path | None = None) -> str:
 
 
 # ------------------------------------------------------------------ export
-def _label(settings: Mapping) -> str:
+def _label(settings: Mapping, depth_mm: np.ndarray) -> str:
     params = ", ".join(f"{k} {float(v):.4g}" for k, v in settings.get("unit_parameters", []))
-    return (f"{settings.get('model')} R = {float(settings['radius_mm']):g} mm, mesh {settings.get('mesh')}"
-            + (f" ({params})" if params else ""))
+    return (f"{settings.get('model')} R = {float(settings['radius_mm']):g} mm, mesh {settings.get('mesh')}, "
+            f"depths to {float(depth_mm[-1]):g} mm" + (f" ({params})" if params else ""))
 
 
 def _order(run) -> tuple:
@@ -332,7 +332,7 @@ def export_cache(cache_dir: Path, directory: Path = SHIPPED_DIR) -> dict:
         for i, (bare, depth, nus, f) in enumerate(sorted(runs, key=_order)):
             arrays.update({f"s{i}_depth_mm": depth, f"s{i}_nu": nus, f"s{i}_f": f})
             surfaces.append({"key": physics_key(bare, depth), "settings": bare, "file": name, "array": f"s{i}",
-                             "nu": nus.tolist(), "label": _label(bare)})
+                             "nu": nus.tolist(), "label": _label(bare, depth)})
         data = npz_bytes(**arrays)
         atomic_write(directory / name, lambda fh, data=data: fh.write(data))
         files[name] = hashlib.sha256(data).hexdigest()
