@@ -147,3 +147,16 @@ def test_a_damaged_shipped_file_is_not_used(tmp_path, caplog):
         assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is None
     assert any("damaged" in r.getMessage() for r in caplog.records)
     assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0])) is not None
+
+
+def test_a_stamp_adds_the_installed_digest_and_keeps_the_others(tmp_path):
+    copy = tmp_path / "surfaces"
+    shutil.copytree(shipped.SHIPPED_DIR, copy)
+    index = json.loads((copy / shipped.INDEX).read_text())
+    index["verified_code"] = ["aaaaaaaaaaaa"]
+    (copy / shipped.INDEX).write_text(json.dumps(index))
+    grid, settings = _unit_surface()
+    assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is None  # not verified
+    assert shipped.stamp(copy) == source_digest()
+    assert json.loads((copy / shipped.INDEX).read_text())["verified_code"] == sorted(["aaaaaaaaaaaa", source_digest()])
+    assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is not None
