@@ -334,6 +334,7 @@ class Fitter:
         options = {}
         lo, hi = model.bounds
         runs0 = forward_runs(model)
+        cached0 = sum(getattr(c, "cached", 0) for c in model.cores)
         looped = in_loop(model)
         if self.joint:  # each point weighed by its own curve's noise
             known["sigma_mN"] = self.noise_points
@@ -392,8 +393,10 @@ class Fitter:
         if best is None:
             raise ValueError(f"the model {model.name} could not be fitted")
         runs = forward_runs(model) - runs0
-        if looped:
-            log.info("fitted %s: %d finite-element runs", model.name, runs)
+        if looped:  # on a rerun they come from the run cache: say so
+            cached = sum(getattr(c, "cached", 0) for c in model.cores) - cached0
+            log.info("fitted %s: %d finite-element runs%s", model.name, runs,
+                     f" ({cached} read from the run cache)" if cached else "")
         x = np.array([best.parameters[n] for n in model.parameter_names])
         pred = d.force_mN - best.residuals_mN
         cov = np.full((x.size, x.size), np.nan)
