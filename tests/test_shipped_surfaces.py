@@ -160,3 +160,30 @@ def test_a_stamp_adds_the_installed_digest_and_keeps_the_others(tmp_path):
     assert shipped.stamp(copy) == source_digest()
     assert json.loads((copy / shipped.INDEX).read_text())["verified_code"] == sorted(["aaaaaaaaaaaa", source_digest()])
     assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is not None
+
+
+@pytest.mark.parametrize("name, radius", [("forearm_like.csv", 6.22), ("forearm_like_R3.11mm.csv", None)])
+def test_the_demo_curves_surfaces_are_all_shipped(name, radius, tmp_path, monkeypatch):
+    """What the demo's diagnosis asks for is what is shipped (a change of the grids or axes would
+    otherwise leave the shipped data unused, silently)."""
+    from skin_indent.data import bundled_path
+    from skin_indent.diagnosis.workflow import prepare_curve
+    from skin_indent.fitting.surfaces import elastic_core, surface_for
+    from skin_indent.measurement import load_csv
+    from skin_indent.models import effect_surface
+    from skin_indent.response_surface import _surface
+    from skin_indent.runtime.context import Context
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a surface needed a finite-element run: not shipped")
+
+    monkeypatch.setattr(_surface, "choose_executor", refuse)
+    monkeypatch.setattr(effect_surface, "make_executor", refuse)
+    curve = prepare_curve(load_csv(bundled_path(name), radius_mm=radius), radius_mm=None,
+                          segments=("approach", "hold", "retract"))
+    context = Context(cache_dir=tmp_path)
+    surface_for(curve.radius_mm, curve.max_indentation_mm, context=context)
+    for key in ((), ("layer",), ("stiffening",)):
+        elastic_core(key, radius_mm=curve.radius_mm, max_depth_mm=curve.max_indentation_mm, e_star_kPa=7.0,
+                     context=context)
+    assert not list(tmp_path.glob("runs/*/nu_*.npz"))
