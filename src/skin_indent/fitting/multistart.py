@@ -338,12 +338,13 @@ class Fitter:
         options = {}
         lo, hi = model.bounds
         runs0 = forward_runs(model)
+        cached0 = sum(getattr(c, "cached", 0) for c in model.cores)
         looped = in_loop(model)
         if self.joint:  # each point weighed by its own curve's noise
             known["sigma_mN"] = self.noise_points
-        # measured (module docstring, 2 cores): 50-100 runs and 1-3 minutes per fit in the loop
-        log.info("fitting %s %s%s", model.name, "with finite elements in the loop (typically 50-100 runs, 1-3 min on "
-                 "2 cores)" if looped else "on response surfaces",
+        # no time estimate: on a rerun the runs come from the run cache (measured, module docstring, 2 cores:
+        # 50-100 runs and 1-3 minutes per fit in the loop from an empty cache)
+        log.info("fitting %s %s%s", model.name, "with finite elements in the loop" if looped else "on response surfaces",
                  f" to {len(self.curves)} curves of one sample" if self.joint else "")
         if looped:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
             # not from the nested start nor from starts equivalent to it: there the combination is
@@ -408,8 +409,10 @@ class Fitter:
         if best is None:
             raise ValueError(f"the model {model.name} could not be fitted")
         runs = forward_runs(model) - runs0
-        if looped:
-            log.info("fitted %s: %d finite-element runs", model.name, runs)
+        if looped:  # on a rerun they come from the run cache: say so
+            cached = sum(getattr(c, "cached", 0) for c in model.cores) - cached0
+            log.info("fitted %s: %d finite-element runs%s", model.name, runs,
+                     f" ({cached} read from the run cache)" if cached else "")
         x = np.array([best.parameters[n] for n in model.parameter_names])
         pred = d.force_mN - best.residuals_mN
         cov = np.full((x.size, x.size), np.nan)

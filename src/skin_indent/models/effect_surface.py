@@ -161,7 +161,7 @@ class EffectSurface:
                                       radius_mm=float(radius_mm), mesh=mesh)
             try:  # a cached surface (or one whose runs are all cached) needs no executor
                 surfaces[idx] = ResponseSurface.load_or_build(grid, settings, curve, cache_dir=cache_dir,
-                                                              progress=False, executor=_Never())
+                                                              progress=False, executor=_Never(), quiet=True)
             except _NeedsRuns:
                 pending.append((idx, curve, settings))
         if not pending:
@@ -188,7 +188,7 @@ class EffectSurface:
             for idx, curve, settings in pending:  # assembled from the store; failed runs stay missing
                 again = _FailAgain(stores[idx].failed())
                 surfaces[idx] = ResponseSurface.load_or_build(grid, settings, curve, cache_dir=cache_dir,
-                                                              progress=False, executor=again)
+                                                              progress=False, executor=again, quiet=True)
         finally:
             bar.close()
             if owned:

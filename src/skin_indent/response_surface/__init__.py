@@ -62,6 +62,12 @@ the next build retries it (:func:`make_runs`, which the effect surfaces of
 :mod:`skin_indent.models` share). :func:`run_batch` runs other batches of forward runs the
 same way.
 
+A fresh install does not start from nothing: the runs of the surfaces its default workflows
+need (the neo-Hookean half-space at unit radius, the base, layer and stiffening surfaces of the
+bundled skin curves at R = 6.22 and 3.11 mm) are shipped with the package and read like the
+run cache, when verified for the installed forward model (:mod:`~skin_indent.response_surface.shipped`:
+verified by recomputed forces, accepted by source digest).
+
 Single runs outside the surfaces (the finite-element model in the loop of a fit, the
 checks and suggestions of a diagnosis) are kept by a :class:`RunCache`
 (:mod:`~skin_indent.response_surface.run_cache`), one file per run keyed by everything

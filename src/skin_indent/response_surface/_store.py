@@ -117,6 +117,8 @@ class RunStore:
         self.depth_mm = np.array(depth_mm, dtype=float)
         self.manifest_path = self.dir / MANIFEST
         self.lock_path = self.dir / LOCK
+        self.settings = settings
+        self._shipped_key = None  # the key of the shipped runs (shipped.physics_key), computed when first needed
         self._runs: dict = {}
         self._signature = None  # (mtime_ns, size, inode) of the manifest last read
         info = self.dir / "settings.json"
@@ -236,11 +238,26 @@ class RunStore:
         return f if ok and f.shape == self.depth_mm.shape and np.all(np.isfinite(f)) else None
 
     def load(self, nu: float) -> np.ndarray | None:
-        """The unit forces of a finished run of ``nu``, or None (not listed, or damaged)."""
+        """The unit forces of a finished run of ``nu``, or None (not listed, or damaged, and not shipped).
+
+        A run the manifest does not list as done is looked up among the surfaces shipped with
+        the package (:func:`skin_indent.response_surface.shipped.lookup`: the same settings but
+        ``code_version``, depths and nu, verified for this ``code_version``); it is returned as
+        a cached run would be, and not written to the cache.
+        """
         e = self._runs.get(nu_tag(nu))
         if e is None or e.get("status") != "done":
-            return None
+            return self._load_shipped(nu)
         return self._check_file(e)
+
+    def _load_shipped(self, nu: float) -> np.ndarray | None:
+        from . import shipped  # lazy: shipped imports this module
+
+        if not isinstance(self.settings, dict):
+            return None
+        if self._shipped_key is None:
+            self._shipped_key = shipped.physics_key(self.settings, self.depth_mm)
+        return shipped.lookup(self.settings, self.depth_mm, nu, key=self._shipped_key)
 
     def record_done(self, nu: float, values: np.ndarray, *, seconds: float | None = None,
                     cpu_seconds: float | None = None, worker: str | None = None) -> Path:

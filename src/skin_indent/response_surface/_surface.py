@@ -124,7 +124,7 @@ class ResponseSurface:
     def build(cls, grid: SurfaceGrid, unit_curve: UnitCurve | None = None, settings: Mapping | None = None,
               cache_dir: str | os.PathLike | None = None, workers: int | None = None,
               progress: bool | None = None, *, client=None, scheduler: str | None = None,
-              executor: Executor | None = None, **options) -> "ResponseSurface":
+              executor: Executor | None = None, quiet: bool = False, **options) -> "ResponseSurface":
         """Run the unit curve once per nu and assemble the surface.
 
         Parameters
@@ -167,6 +167,9 @@ class ResponseSurface:
             Address of a Dask scheduler (``tcp://HOST:PORT``) to connect to instead.
         executor : Executor, optional
             An executor of :mod:`skin_indent.response_surface` (instead of the above).
+        quiet : bool
+            No INFO line about the runs to make (a caller that builds several surfaces
+            announces them in one line, as an effect surface does).
         **options
             ``method``, ``depth_interp``, ``scaling`` of the returned surface.
 
@@ -201,12 +204,14 @@ class ResponseSurface:
                 f[:, k] = done
         failures: dict[float, str] = {}
         what = _describe(settings, grid)
-        if todo:
-            log.info("%s: %d finite-element run%s to make, %d of %d cached%s", what, len(todo),
-                     "s" if len(todo) != 1 else "", nus.size - len(todo), nus.size,
-                     "" if store is None else f" (in {store.dir})")
+        if todo:  # one line for the phase (the cache folder in a DEBUG line)
+            (log.debug if quiet else log.info)("%s: %d finite-element run%s to make, %d of %d cached", what,
+                                               len(todo), "s" if len(todo) != 1 else "", nus.size - len(todo),
+                                               nus.size)
+            if store is not None:
+                log.debug("%s: runs cached in %s", what, store.dir)
         else:
-            log.debug("%s: all %d runs cached in %s", what, nus.size, store.dir)
+            log.debug("%s: all %d runs cached (or shipped) in %s", what, nus.size, store.dir)
         bar = progress_bar(progress, total=nus.size, initial=nus.size - len(todo), desc="response surface",
                            unit="run")
         # remote workers may run another installation: what they ran is checked (local processes run
@@ -284,7 +289,7 @@ class ResponseSurface:
                       unit_curve: UnitCurve | None = None, *, path: str | os.PathLike | None = None,
                       cache_dir: str | os.PathLike | None = None, workers: int | None = None,
                       progress: bool | None = None, client=None, scheduler: str | None = None,
-                      executor: Executor | None = None, **options) -> "ResponseSurface":
+                      executor: Executor | None = None, quiet: bool = False, **options) -> "ResponseSurface":
         """Reuse a stored surface if its hash matches ``settings`` and ``grid``, else build.
 
         A stored surface with failed runs is rebuilt (finished runs are reused from the
@@ -293,7 +298,7 @@ class ResponseSurface:
 
         Parameters
         ----------
-        grid, settings, unit_curve, workers, progress, client, scheduler, executor, **options
+        grid, settings, unit_curve, workers, progress, client, scheduler, executor, quiet, **options
             As in :meth:`build` (``settings`` default as there).
         path : path, optional
             Surface file; default ``cache_dir/surfaces/<hash>.npz``.
@@ -313,7 +318,7 @@ class ResponseSurface:
                 log.debug("response surface %s loaded from %s", key[:12], path)
                 return stored
         out = cls.build(grid, unit_curve, settings, cache_dir=cache_dir, workers=workers, progress=progress,
-                        client=client, scheduler=scheduler, executor=executor, **options)
+                        client=client, scheduler=scheduler, executor=executor, quiet=quiet, **options)
         out.save(path)
         return out
 

@@ -1,0 +1,189 @@
+"""The response surfaces shipped with the package: verified by their forces, read like the cache.
+
+The check of the shipped data (:func:`skin_indent.response_surface.shipped.verify`) recomputes one
+run of every shipped family with the installed forward model (8 runs: the unit-radius half-space
+on the medium mesh, the base, layer and stiffening surfaces of the demo's two radii on the coarse
+one) and fails if any force differs by more than a tenth of the model error.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import shutil
+
+import numpy as np
+import pytest
+
+from skin_indent.fitting.rung import MODEL_ERROR
+from skin_indent.response_surface import ResponseSurface, RunStore, default_settings, run_key, shipped
+from skin_indent.response_surface._cache import source_digest
+from skin_indent.runtime.executors import Executor
+
+
+@pytest.fixture(scope="module")
+def recomputed():
+    """The sampled shipped runs made again by the installed forward model: ``{(label, nu): forces}``."""
+    return {(label, nu): shipped.recompute(settings, depth, nu)
+            for label, settings, depth, nu, _ in shipped.sample_runs(1)}
+
+
+def _forces_of(recomputed):
+    """``forces_of`` of :func:`shipped.verify` that answers with the runs made once by the fixture."""
+    def key(settings, depth, nu):
+        return json.dumps(settings, sort_keys=True), float(depth[-1]), float(nu)
+
+    made = {key(s, depth, nu): recomputed[label, nu] for label, s, depth, nu, _ in shipped.sample_runs(1)}
+    return lambda settings, depth, nu: made[key(settings, depth, nu)]
+
+
+def test_the_tolerance_is_a_tenth_of_the_model_error():
+    assert shipped.TOLERANCE == pytest.approx(MODEL_ERROR / 10)
+
+
+def test_every_shipped_family_is_sampled_and_matches_the_forward_model(recomputed):
+    index = json.loads((shipped.SHIPPED_DIR / shipped.INDEX).read_text())
+    assert len(recomputed) == len({s["file"] for s in index["surfaces"]}) >= 8
+    report = shipped.verify(1, forces_of=_forces_of(recomputed))
+    assert report.ok, "\n".join(report.lines())
+    assert all(c.difference <= MODEL_ERROR / 10 for c in report.checks)
+
+
+def test_the_check_fails_when_a_shipped_node_is_perturbed_by_a_tenth_of_a_percent(recomputed, tmp_path):
+    copy = tmp_path / "surfaces"
+    shutil.copytree(shipped.SHIPPED_DIR, copy)
+    index = json.loads((copy / shipped.INDEX).read_text())
+    label, settings, depth, nu, f = next(s for s in shipped.sample_runs(1, copy) if "layer" in s[0])
+    entry = next(e for e in index["surfaces"] if e["settings"] == settings)
+    with np.load(copy / entry["file"]) as z:
+        arrays = {k: np.array(z[k]) for k in z.files}
+    j = int(np.flatnonzero(arrays[f"{entry['array']}_nu"] == nu)[0])
+    arrays[f"{entry['array']}_f"][j, 40] *= 1.001  # one node, one depth, 0.1 %
+    np.savez(copy / entry["file"], **arrays)
+    # listed with its new checksum, as an export of a wrong run would be: only the forces can tell
+    index["files"][entry["file"]] = hashlib.sha256((copy / entry["file"]).read_bytes()).hexdigest()
+    (copy / shipped.INDEX).write_text(json.dumps(index))
+    report = shipped.verify(1, directory=copy, forces_of=_forces_of(recomputed))
+    assert not report.ok
+    failed = [c for c in report.checks if not c.ok]
+    assert [(c.label, c.nu) for c in failed] == [(label, nu)]
+    assert failed[0].difference == pytest.approx(1e-3, rel=0.05)
+
+
+def test_the_installed_forward_model_is_stamped():
+    """A change of the mechanics that does not move the forces: stamp it (verify --stamp), no rebuild."""
+    index = json.loads((shipped.SHIPPED_DIR / shipped.INDEX).read_text())
+    assert source_digest() in index["verified_code"], (
+        f"the shipped surfaces are verified for src.{index['verified_code']}, not for the installed forward model "
+        f"src.{source_digest()}: run `python benchmarks/build_shipped_surfaces.py verify --stamp` (it stamps them "
+        "if their forces hold, else says to rebuild them)")
+
+
+def test_the_shipped_data_is_small():
+    size = sum(p.stat().st_size for p in shipped.SHIPPED_DIR.iterdir())
+    assert size < 4 * 2**20
+    assert all(p.stat().st_size < 2 * 2**20 for p in shipped.SHIPPED_DIR.iterdir())
+
+
+class _Refuses(Executor):
+    def imap_unordered(self, fn, tasks):
+        raise AssertionError("a run was asked for")
+
+
+class _Fake(Executor):
+    def __init__(self):
+        self.runs = 0
+
+    def imap_unordered(self, fn, tasks):
+        for tag, (_curve, nu, depth) in tasks:
+            self.runs += 1
+            yield tag, {"values": depth**1.5 * (1 + nu), "reason": None, "seconds": 0.0, "worker": "fake",
+                        "code": "x"}, None
+
+
+def _unit_surface():
+    from skin_indent.fitting.surfaces import unit_surface_grid
+
+    return unit_surface_grid(0.1), default_settings(1.0, mesh="medium")
+
+
+def test_a_fresh_cache_reads_the_shipped_surface_without_a_run(tmp_path):
+    grid, settings = _unit_surface()
+    surface = ResponseSurface.load_or_build(grid, settings, cache_dir=tmp_path, executor=_Refuses())
+    entry = next(e for e in json.loads((shipped.SHIPPED_DIR / shipped.INDEX).read_text())["surfaces"]
+                 if e["key"] == shipped.physics_key(settings, grid.depth_mm))
+    with np.load(shipped.SHIPPED_DIR / entry["file"]) as z:
+        assert np.array_equal(surface.unit_forces, z[f"{entry['array']}_f"].T)
+    # read like the cache: not written into the run cache's manifest
+    key = run_key(json.loads(json.dumps(surface.settings)), grid.depth_mm)
+    assert RunStore(tmp_path / "runs" / key[:24], key, surface.settings, grid.depth_mm).runs == {}
+
+
+def test_other_forward_model_sources_ignore_the_shipped_surface_with_one_line(tmp_path, caplog):
+    grid, settings = _unit_surface()
+    settings = {**settings, "code_version": "0+src.000000000000"}
+    shipped._shipped.cache_clear()
+    fake = _Fake()
+    with caplog.at_level(logging.DEBUG, logger="skin_indent"):
+        surface = ResponseSurface.build(grid, None, settings, cache_dir=tmp_path, executor=fake)
+    shipped._shipped.cache_clear()
+    lines = [r.getMessage() for r in caplog.records if "shipped" in r.getMessage()]
+    assert len(lines) == 1 and "src.000000000000" in lines[0] and "not used" in lines[0], lines
+    assert fake.runs == grid.nu.size  # built as without them
+    assert np.allclose(surface.unit_forces, grid.depth_mm[:, None] ** 1.5 * (1 + grid.nu[None, :]))
+
+
+def test_a_damaged_shipped_file_is_not_used(tmp_path, caplog):
+    copy = tmp_path / "surfaces"
+    shutil.copytree(shipped.SHIPPED_DIR, copy)
+    grid, settings = _unit_surface()
+    entry = next(e for e in json.loads((copy / shipped.INDEX).read_text())["surfaces"]
+                 if e["key"] == shipped.physics_key(settings, grid.depth_mm))
+    raw = bytearray((copy / entry["file"]).read_bytes())
+    raw[-100] ^= 1
+    (copy / entry["file"]).write_bytes(bytes(raw))
+    with caplog.at_level(logging.WARNING, logger="skin_indent"):
+        assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is None
+    assert any("damaged" in r.getMessage() for r in caplog.records)
+    assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0])) is not None
+
+
+def test_a_stamp_adds_the_installed_digest_and_keeps_the_others(tmp_path):
+    copy = tmp_path / "surfaces"
+    shutil.copytree(shipped.SHIPPED_DIR, copy)
+    index = json.loads((copy / shipped.INDEX).read_text())
+    index["verified_code"] = ["aaaaaaaaaaaa"]
+    (copy / shipped.INDEX).write_text(json.dumps(index))
+    grid, settings = _unit_surface()
+    assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is None  # not verified
+    assert shipped.stamp(copy) == source_digest()
+    assert json.loads((copy / shipped.INDEX).read_text())["verified_code"] == sorted(["aaaaaaaaaaaa", source_digest()])
+    assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is not None
+
+
+@pytest.mark.parametrize("name, radius", [("forearm_like.csv", 6.22), ("forearm_like_R3.11mm.csv", None)])
+def test_the_demo_curves_surfaces_are_all_shipped(name, radius, tmp_path, monkeypatch):
+    """What the demo's diagnosis asks for is what is shipped (a change of the grids or axes would
+    otherwise leave the shipped data unused, silently)."""
+    from skin_indent.data import bundled_path
+    from skin_indent.diagnosis.workflow import prepare_curve
+    from skin_indent.fitting.surfaces import elastic_core, surface_for
+    from skin_indent.measurement import load_csv
+    from skin_indent.models import effect_surface
+    from skin_indent.response_surface import _surface
+    from skin_indent.runtime.context import Context
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a surface needed a finite-element run: not shipped")
+
+    monkeypatch.setattr(_surface, "choose_executor", refuse)
+    monkeypatch.setattr(effect_surface, "make_executor", refuse)
+    curve = prepare_curve(load_csv(bundled_path(name), radius_mm=radius), radius_mm=None,
+                          segments=("approach", "hold", "retract"))
+    context = Context(cache_dir=tmp_path)
+    surface_for(curve.radius_mm, curve.max_indentation_mm, context=context)
+    for key in ((), ("layer",), ("stiffening",)):
+        elastic_core(key, radius_mm=curve.radius_mm, max_depth_mm=curve.max_indentation_mm, e_star_kPa=7.0,
+                     context=context)
+    assert not list(tmp_path.glob("runs/*/nu_*.npz"))
