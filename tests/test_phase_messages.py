@@ -10,20 +10,9 @@ import pytest
 from skin_indent.fitting.surfaces import EFFECT_NU
 from skin_indent.models.effect_surface import EffectSurface, default_axes
 from skin_indent.response_surface import SurfaceGrid
-from skin_indent.runtime.executors import Executor
+from _executors import FakeExecutor
 
 
-class _Fake(Executor):
-    """Answers every run at once with a smooth positive curve (no finite elements)."""
-
-    def __init__(self):
-        self.runs = 0
-
-    def imap_unordered(self, fn, tasks):
-        for tag, (_curve, nu, depth) in tasks:
-            self.runs += 1
-            yield tag, {"values": depth**1.5 * (1 + nu), "reason": None, "seconds": 0.0, "worker": "fake",
-                        "code": "x"}, None
 
 
 def _info_lines(caplog):
@@ -33,7 +22,7 @@ def _info_lines(caplog):
 def test_an_effect_surface_build_is_one_line_and_a_cached_one_none(caplog, tmp_path):
     grid = SurfaceGrid(np.linspace(0.002, 0.2, 6), [1.0, 10.0], EFFECT_NU)
     axes = default_axes("layer", 0.2)
-    fake = _Fake()
+    fake = FakeExecutor()
     with caplog.at_level(logging.INFO, logger="skin_indent"):
         EffectSurface.build(("layer",), axes, grid, radius_mm=6.22, mesh="coarse", cache_dir=tmp_path,
                             executor=fake, progress=False)
@@ -56,7 +45,7 @@ def test_a_response_surface_build_names_no_cache_folder(caplog, tmp_path):
     grid = SurfaceGrid(np.linspace(0.01, 0.1, 5), [1.0, 10.0], [0.3, 0.4])
     with caplog.at_level(logging.INFO, logger="skin_indent"):
         ResponseSurface.build(grid, None, {"radius_mm": 6.22, "mesh": "coarse"}, cache_dir=tmp_path,
-                              executor=_Fake())
+                              executor=FakeExecutor())
     lines = _info_lines(caplog)
     assert len(lines) == 1 and "2 finite-element runs to make, 0 of 2 cached" in lines[0], lines
     assert str(tmp_path) not in lines[0]

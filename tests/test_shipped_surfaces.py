@@ -19,7 +19,7 @@ import pytest
 from skin_indent.fitting.rung import MODEL_ERROR
 from skin_indent.response_surface import ResponseSurface, RunStore, default_settings, run_key, shipped
 from skin_indent.response_surface._cache import source_digest
-from skin_indent.runtime.executors import Executor
+from _executors import FakeExecutor, RefusingExecutor
 
 
 @pytest.fixture(scope="module")
@@ -86,20 +86,8 @@ def test_the_shipped_data_is_small():
     assert all(p.stat().st_size < 2 * 2**20 for p in shipped.SHIPPED_DIR.iterdir())
 
 
-class _Refuses(Executor):
-    def imap_unordered(self, fn, tasks):
-        raise AssertionError("a run was asked for")
 
 
-class _Fake(Executor):
-    def __init__(self):
-        self.runs = 0
-
-    def imap_unordered(self, fn, tasks):
-        for tag, (_curve, nu, depth) in tasks:
-            self.runs += 1
-            yield tag, {"values": depth**1.5 * (1 + nu), "reason": None, "seconds": 0.0, "worker": "fake",
-                        "code": "x"}, None
 
 
 def _unit_surface():
@@ -110,7 +98,7 @@ def _unit_surface():
 
 def test_a_fresh_cache_reads_the_shipped_surface_without_a_run(tmp_path):
     grid, settings = _unit_surface()
-    surface = ResponseSurface.load_or_build(grid, settings, cache_dir=tmp_path, executor=_Refuses())
+    surface = ResponseSurface.load_or_build(grid, settings, cache_dir=tmp_path, executor=RefusingExecutor())
     entry = next(e for e in json.loads((shipped.SHIPPED_DIR / shipped.INDEX).read_text())["surfaces"]
                  if e["key"] == shipped.physics_key(settings, grid.depth_mm))
     with np.load(shipped.SHIPPED_DIR / entry["file"]) as z:
@@ -124,7 +112,7 @@ def test_other_forward_model_sources_ignore_the_shipped_surface_with_one_line(tm
     grid, settings = _unit_surface()
     settings = {**settings, "code_version": "0+src.000000000000"}
     shipped._shipped.cache_clear()
-    fake = _Fake()
+    fake = FakeExecutor()
     with caplog.at_level(logging.DEBUG, logger="skin_indent"):
         surface = ResponseSurface.build(grid, None, settings, cache_dir=tmp_path, executor=fake)
     shipped._shipped.cache_clear()
