@@ -1,6 +1,6 @@
 """The vocabulary: every effect a model can have, by name.
 
-The six effects of the package are registered when :mod:`skin_indent.effects` is
+The effects of the package (the sample's, then the instrument's) are registered when :mod:`skin_indent.effects` is
 imported; :func:`register` adds another one (a subclass of
 :class:`~skin_indent.effects.base.Effect`), after which models, fits, the diagnosis
 and the command line take it like the others.
