@@ -75,7 +75,7 @@ def verdict_line(row) -> str:
     Returns
     -------
     str
-        ``label: sample: verdict; instrument: drag, baselines [(provisional)]; final model M: E = ... kPa +- ..., misfit ... x noise,
+        ``label: sample: verdict [(provisional)]; instrument: drag, baselines; final model M: E = ... kPa +- ..., misfit ... x noise,
         white|structured[; other explanations: ...]`` (``Pa`` for an AFM-scale sphere), or
         ``label: error: ...``.
     """
@@ -84,8 +84,10 @@ def verdict_line(row) -> str:
     u = display_units(row.radius_mm)
     sd = "" if not math.isfinite(row.E_std_kPa) else f" +- {row.E_std_kPa * u.per_kPa:.2g}"
     instrument = getattr(row, "instrument", "")
-    verdict = f"sample: {row.verdict}; instrument: {instrument}" if instrument else row.verdict
-    text = (f"{row.label}: {verdict}{' (provisional)' if row.provisional else ''}; final model "
+    verdict = row.verdict + (" (provisional)" if row.provisional else "")
+    if instrument:
+        verdict = f"sample: {verdict}; instrument: {instrument}"
+    text = (f"{row.label}: {verdict}; final model "
             f"{row.model}: E = {row.E_kPa * u.per_kPa:.4g}{sd} {u.modulus}, misfit {row.misfit:.3g} x noise, "
             f"{'white' if row.white else 'structured'}")
     if len(row.confounded_with) > 1:
