@@ -81,6 +81,7 @@ def main(argv=None) -> int:
     if args.action == "build":
         build(args.cache, args.workers)
         return 0
+    from skin_indent.models.effect_surface import recompute_shipped
     from skin_indent.response_surface import shipped
 
     if args.action == "export":
@@ -88,7 +89,7 @@ def main(argv=None) -> int:
         size = sum(p.stat().st_size for p in shipped.SHIPPED_DIR.iterdir() if p.is_file())
         print(f"exported {len(index['surfaces'])} surfaces to {shipped.SHIPPED_DIR} ({size / 2**20:.2f} MiB)")
         return 0
-    report = shipped.verify(sample=args.sample)
+    report = shipped.verify(sample=args.sample, forces_of=recompute_shipped)
     for line in report.lines():
         print(line)
     if not report.ok:

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from skin_indent.fitting.rung import MODEL_ERROR
+from skin_indent.models.effect_surface import recompute_shipped
 from skin_indent.response_surface import ResponseSurface, RunStore, default_settings, run_key, shipped
 from skin_indent.response_surface._cache import source_digest
 from _executors import FakeExecutor, RefusingExecutor
@@ -25,7 +26,7 @@ from _executors import FakeExecutor, RefusingExecutor
 @pytest.fixture(scope="module")
 def recomputed():
     """The sampled shipped runs made again by the installed forward model: ``{(label, nu): forces}``."""
-    return {(label, nu): shipped.recompute(settings, depth, nu)
+    return {(label, nu): recompute_shipped(settings, depth, nu)
             for label, settings, depth, nu, _ in shipped.sample_runs(1)}
 
 

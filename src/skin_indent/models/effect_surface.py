@@ -28,11 +28,11 @@ from __future__ import annotations
 import functools
 import itertools
 import logging
-from typing import Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
-from ..response_surface import SurfaceGrid, default_cache_dir, default_settings
+from ..response_surface import SurfaceGrid, default_cache_dir, default_settings, default_unit_curve
 from ..runtime.executors import Executor
 from ..effects import ELASTIC, EffectAxis, effect
 from ..effects import Model
@@ -44,7 +44,7 @@ from ..runtime.log import progress_bar
 
 log = logging.getLogger(__name__)
 
-__all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve"]
+__all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve", "recompute_shipped", "unit_curve_of"]
 
 
 
@@ -349,3 +349,21 @@ class _FailAgain(Executor):
         for tag, (_curve, nu, _depth) in tasks:
             yield tag, {"values": None, "reason": self.reasons.get(nu, "failed in this build (see the run manifest)"),
                         "worker": None}, None
+
+
+def unit_curve_of(settings) -> Callable:
+    """The forward model that made a surface's run, rebuilt from its settings (a shipped run's):
+    an effect surface's :func:`model_unit_curve`, else the half-space's unit curve."""
+    if settings.get("unit_curve") == "skin_indent.models.effect_surface.model_unit_curve":
+        effects = tuple(settings["model"].split("+")[1:])
+        params = tuple((k, float(v)) for k, v in settings["unit_parameters"])
+        return functools.partial(model_unit_curve, effects=effects, parameters=params,
+                                 radius_mm=float(settings["radius_mm"]), mesh=settings["mesh"])
+    return default_unit_curve(settings)
+
+
+def recompute_shipped(settings, depth_mm, nu: float) -> np.ndarray:
+    """The unit forces (mN at E = 1 kPa) of a shipped run made again by the installed forward model:
+    ``forces_of`` of :func:`skin_indent.response_surface.shipped.verify`."""
+    return np.asarray(unit_curve_of(settings)(float(nu), np.array(depth_mm, dtype=float)), dtype=float)
+

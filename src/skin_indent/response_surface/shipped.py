@@ -155,20 +155,6 @@ def lookup(settings: Mapping, depth_mm, nu: float, *, key: str | None = None,
         settings, np.asarray(depth_mm, dtype=float), nu, key)
 
 
-def _unit_curve_of(settings: Mapping) -> Callable:
-    """The forward model that made a shipped run, rebuilt from its settings."""
-    from ._cache import default_unit_curve
-
-    if settings.get("unit_curve") == "skin_indent.models.effect_surface.model_unit_curve":
-        from ..models.effect_surface import model_unit_curve
-
-        effects = tuple(settings["model"].split("+")[1:])
-        params = tuple((k, float(v)) for k, v in settings["unit_parameters"])
-        return functools.partial(model_unit_curve, effects=effects, parameters=params,
-                                 radius_mm=float(settings["radius_mm"]), mesh=settings["mesh"])
-    return default_unit_curve(settings)
-
-
 # ------------------------------------------------------------------ verification
 @dataclass(frozen=True)
 class Check:
@@ -239,12 +225,7 @@ def sample_runs(sample: int = 1, directory: Path | None = None) -> list[tuple]:
     return out
 
 
-def recompute(settings: Mapping, depth_mm: np.ndarray, nu: float) -> np.ndarray:
-    """The unit forces of a shipped run made again by the installed forward model (mN at E = 1 kPa)."""
-    return np.asarray(_unit_curve_of(settings)(float(nu), np.array(depth_mm, dtype=float)), dtype=float)
-
-
-def verify(sample: int | None = None, *, directory: Path | None = None, forces_of: Callable = recompute) -> Report:
+def verify(sample: int | None = None, *, forces_of: Callable, directory: Path | None = None) -> Report:
     """Recompute ``sample`` runs of every shipped family and compare their forces (see the module docstring).
 
     Parameters
@@ -254,8 +235,9 @@ def verify(sample: int | None = None, *, directory: Path | None = None, forces_o
     directory : path, optional
         The shipped surfaces (default :data:`SHIPPED_DIR`).
     forces_of : callable
-        ``forces_of(settings, depth_mm, nu) -> unit forces``; default :func:`recompute` (the
-        installed forward model).
+        ``forces_of(settings, depth_mm, nu) -> unit forces``: the installed forward model,
+        :func:`skin_indent.models.effect_surface.recompute_shipped` (the models import this
+        package, so it is passed in, not imported here).
     """
     checks = []
     for label, settings, depth, nu, f in sample_runs(sample or 1, directory):
