@@ -22,8 +22,6 @@ to the kernel over [0, 1e4 s] (:func:`~skin_indent.mechanics.materials.viscoelas
 
 from __future__ import annotations
 
-import numpy as np
-
 from .base import HISTORY, EffectParameter, Evaluation, ForwardSpec
 from .hereditary import PowerLawKernel, hereditary_force, relaxation_weights
 from .viscoelastic import Viscoelastic
