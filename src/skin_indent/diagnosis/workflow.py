@@ -449,7 +449,8 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
     for c, s in zip(curves, sigmas):
         log.info("diagnosing %d points of %s (%s), noise %.3g mN, sphere R = %g mm, mesh %s; finite elements in the "
-                 "loop %s", c.n, c.source, ", ".join(k for k in segments if c.has(k)) or "no segment", s, c.radius_mm, mesh, "allowed" if in_loop else "off")
+                 "loop %s", c.n, c.source, ", ".join(k for k in segments if c.has(k)) or "no segment", s, c.radius_mm,
+                 mesh, "allowed" if in_loop else "off")
     for i in range(len(add) + 1):
         fitter.fit(add[:i])
     # the instrument first: drag and the baselines, which the parts out of contact determine, are
