@@ -176,6 +176,10 @@ def test_demo_runs_end_to_end(tmp_path):
     assert 5.3 < paper["parameters"]["E_kPa"] < 6.2 and paper["parameters"]["nu"] > 0.44 and paper["success"]
     assert abs(lsq["parameters"]["E_kPa"] - paper["parameters"]["E_kPa"]) < 0.3
     assert lsq["rms_mN"] > 2 * summary["noise_mN"]  # a layered curve: the homogeneous model misfits
+    # least squares ends with nu at the surface's end (the data bound it only from below): a flag, as `fit`
+    # gives it, in the terminal and demo.json; the paper's filter stops inside the range
+    assert [f[:27] for f in lsq["flags"]] == ["nu at the bound of its rang"] and paper["flags"] == []
+    assert "flag (lsq): nu at the bound" in p.stdout
     assert (tmp_path / "demo" / "demo.png").stat().st_size > 20_000
     assert "wrote" in p.stdout
     # a second run reuses the cached surface: no finite-element run, the cache is left exactly as it was

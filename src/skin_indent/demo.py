@@ -36,6 +36,7 @@ from .diagnosis import diagnose
 from .fitting.bodies import body_lines
 from .report import write_report
 from .fitting import PAPER_TOLERANCE, identify, surface_for
+from .fitting.ended import ending_flags
 from .measurement import load_csv, prepare
 from .report import save_figure
 from .report.sample_figure import sample_diagnosis_figure
@@ -97,6 +98,11 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
                      f"{r.iterations:11d} {timings[method]:9.2f}")
     for line in lines:
         echo(line)
+    # how each fit ended where that is not a result (nu at its surface's end): as `fit` flags it
+    flags = {method: ending_flags(r, limits=False) for method, r in results.items()}
+    for method, method_flags in flags.items():
+        for flag in method_flags:
+            echo(f"  flag ({method}): {flag}")
     lsq = results["lsq"]
     echo(f"noise level from the data: {noise:.3f} mN; least-squares misfit {lsq.rms_mN:.3f} mN "
          f"({lsq.rms_mN / noise:.1f} x noise)")
@@ -152,7 +158,7 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
         "data": str(measurement.source),
         "window_mm": list(WINDOW_MM),
         "noise_mN": noise,
-        "results": {m: r.to_dict() for m, r in results.items()},
+        "results": {m: {**r.to_dict(), "flags": flags[m]} for m, r in results.items()},
         "time_s": timings,
         "nu_profile": {"verdict": prof.verdict, "values": list(map(float, prof.values)),
                        "rms_mN": list(map(float, prof.rms_mN))},
