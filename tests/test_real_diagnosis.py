@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from _data import DATA
 
-from skin_indent.diagnosis.workflow import at_physical_range
+from skin_indent.diagnosis.instrument import at_physical_range
 from skin_indent.effects import INSTRUMENT
 from skin_indent.measurement import load_csv
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..fitting.multistart import Fitter
 from ..fitting.rung import NO_STRUCTURE, Rung, evidence
+from ..inverse.residuals import effective_sample_size
 from ..models.composed import at_physical_limit
 
 #: BIC drop that names an effect
@@ -102,7 +103,7 @@ class Scores:
     n : int
         Points fitted.
     n_eff : float
-        Their effective sample size (:func:`~.workflow._effective_size`).
+        Their effective sample size (:func:`effective_size`).
     """
 
     def __init__(self, n: int, n_eff: float):
@@ -118,3 +119,11 @@ class Scores:
         if got is None:
             got = self.rungs[f.effects] = dataclasses.replace(f, bic=self.bic(f))
         return got
+
+
+def effective_size(fitter: Fitter, rungs) -> float:
+    """AR(1) effective sample size of the best-fitting rung's residual (at least 2 k + 2, at most n)."""
+    best = min(rungs, key=lambda f: f.chi2_weighted)
+    n = fitter.data.n
+    r = best.residual_mN * fitter.noise_mN / fitter.sigma(best.prediction_mN)
+    return float(min(max(effective_sample_size(r), 2.0 * max(f.n_parameters for f in rungs) + 2), n))

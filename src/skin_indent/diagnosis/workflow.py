@@ -82,11 +82,12 @@ from ..fitting.rung import Rung
 from ..models.composed import at_physical_limit
 from ..models.joint import split_name
 from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
-from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RIVAL, STRONG, Scores, explained,
+from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RIVAL, STRONG, Scores, effective_size,
+                       explained,
                        settled, unmoved)
 from .result import Diagnosis, Step
+from .instrument import at_physical_range, examine_instrument
 from .segment_misfit import segment_misfits
-from ..inverse.residuals import effective_sample_size
 from ..runtime.context import context_of
 from ..runtime.provenance import records_call
 
@@ -148,14 +149,6 @@ def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
     return Step(current, ranking, not_detectable, verdict, rivals)
 
 
-def _effective_size(fitter: Fitter, rungs) -> float:
-    """AR(1) effective sample size of the best-fitting rung's residual (at least 2 k + 2, at most n)."""
-    best = min(rungs, key=lambda f: f.chi2_weighted)
-    n = fitter.data.n
-    r = best.residual_mN * fitter.noise_mN / fitter.sigma(best.prediction_mN)
-    return float(min(max(effective_sample_size(r), 2.0 * max(f.n_parameters for f in rungs) + 2), n))
-
-
 def _climb(fitter: Fitter, key: tuple, candidates, scores: Scores, rungs_left: int, steps: list) -> tuple:
     """Greedy climb from ``key``: add the named effect while the rung is not :func:`settled`."""
     while rungs_left > 0 and not settled(fitter.fit(key), fitter):
@@ -207,94 +200,6 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
                            f"the climb stopped at max_rungs = {max_rungs} before examining "
                            f"{'+'.join(unexamined) or 'the given model'}")
     return out
-
-
-#: a parameter of the instrument within this fraction of its range from a face ends on it
-AT_LIMIT = 1e-3
-
-
-def at_physical_range(rung: Rung, effects) -> list[str]:
-    """The fit parameters of the instrument's ``effects`` in ``rung`` that end on the far face of their
-    physical range (within :data:`AT_LIMIT` of it; the face at 0, their off value, does not count): an
-    effect of the instrument there stands in for a force the instrument cannot give (tethers pulled on
-    the retract, the sample's creep in a hold).
-
-    Parameters
-    ----------
-    rung : Rung
-        A fitted model (its ``bound_model`` and ``x``).
-    effects : iterable of str
-        Effects of the instrument in it.
-    """
-    model = rung.bound_model
-    own = {k for n in effects for k in effect(n).fit_names}
-    out = []
-    for i, k in enumerate(model.parameter_names):
-        if split_name(k)[0] not in own:
-            continue
-        lo, hi = float(model.bounds[0][i]), float(model.bounds[1][i])
-        v, span = float(rung.x[i]), hi - lo
-        for face in (lo, hi):
-            if face != 0.0 and math.isfinite(face) and abs(v - face) <= AT_LIMIT * span:
-                out.append(k)
-    return out
-
-
-def _instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, list]:
-    """The instrument's effects the curve shows, fitted together on top of ``add``.
-
-    Every combination of the instrument's candidates (:attr:`~skin_indent.effects.Effect.instrument`:
-    drag, the baselines; at most 7 combinations of 3) that can show in the data is fitted on top of
-    the current model, with the sample's parameters: drag and a drift may each fail alone where
-    together they explain the parts out of contact. The combination of lowest BIC (at the effective
-    sample size of these fits) is named when it lowers the BIC by more than :data:`STRONG`. The parts
-    out of contact, where the sample gives no force, weigh as much as the rest: the instrument's
-    effects are named there first, so that no effect of the sample is named to absorb them.
-
-    Returns
-    -------
-    key : tuple of str
-        The instrument's effects named, in registration order.
-    steps : list of Step
-        The examination (every combination ranked on top of ``add``; none when no candidate shows).
-    """
-    import itertools
-
-    hidden, wanted = {}, []
-    for name in candidates:
-        why = fitter.visible(effect(name))
-        if why is None:
-            wanted.append(name)
-        else:
-            hidden[name] = why
-    if not wanted:
-        return (), []
-    combos = [c for k in range(1, len(wanted) + 1) for c in itertools.combinations(wanted, k)]
-    current = fitter.fit(add)
-    fitted = fitter.fit_all([add + c for c in combos])
-    tried = []
-    for c in combos:
-        f = fitted[add + c]
-        if isinstance(f, ValueError):
-            hidden["+".join(c)] = f"{NOT_FITTED}: {f}"
-            continue
-        pinned = at_physical_range(f, c)
-        if pinned:  # at the edge of its physical range: it stands in for something else (tethers, creep)
-            hidden["+".join(c)] = (f"{', '.join(pinned)} at the edge of its physical range: the instrument "
-                                   "cannot give that force, something else does")
-            continue
-        tried.append(f)
-    if not tried:
-        return (), [Step(current, [], hidden, "none", [])]
-    scores = Scores(fitter.data.n, _effective_size(fitter, [current, *tried]))
-    current = scores(current)
-    ranking = sorted((scores(f) for f in tried), key=lambda f: f.bic)
-    best = ranking[0]
-    named = current.bic - best.bic > STRONG
-    key = tuple(best.effects[len(add):]) if named else ()
-    if named:
-        log.info("the instrument: %s named (BIC lower by %.1f)", ", ".join(key), current.bic - best.bic)
-    return key, [Step(current, ranking, hidden, "+".join(key) if named else "none", [])]
 
 
 def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
@@ -458,7 +363,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     given = add
     instrument_candidates = tuple(c for c in candidates if effect(c).instrument)
     candidates = tuple(c for c in candidates if not effect(c).instrument)
-    instrument, instrument_steps = _instrument(fitter, add, instrument_candidates)
+    instrument, instrument_steps = examine_instrument(fitter, add, instrument_candidates)
     excluded: set = set()  # the instrument's effects dropped at the edge of their physical range
     dropped_notes = []
     while True:
@@ -468,7 +373,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         fits = [fitter.fit(add)]
         keys = [add + (name,) for name in _fittable(fitter, add, candidates)]
         fits += [f for f in fitter.fit_all(keys).values() if not isinstance(f, ValueError)]
-        n_eff = _effective_size(fitter, fits)
+        n_eff = effective_size(fitter, fits)
         scores = Scores(data.n, n_eff)
         first = _examine(fitter, add, candidates, scores)
         steps = [first]
@@ -510,7 +415,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
                                  f"{', '.join(sorted(pinned))} end(s) at the edge of the physical range (a force "
                                  "the instrument cannot give: tethers, the sample's creep)")
             continue
-        more, more_steps = _instrument(fitter, key, tuple(c for c in instrument_candidates
+        more, more_steps = examine_instrument(fitter, key, tuple(c for c in instrument_candidates
                                                           if c not in key and c not in excluded))
         if not more:
             break
