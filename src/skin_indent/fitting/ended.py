@@ -202,7 +202,7 @@ def _core_of(model, name: str):
 
 def _edge_of(core) -> str:
     """What a core's range is: a surface's nodes, or what the finite-element model solves."""
-    if getattr(core, "in_loop", False) or hasattr(core, "prefetch"):
+    if core.in_loop:
         return "what the finite-element model solves"
     label = getattr(core, "name", None)
     what = f"the {label} response surface" if isinstance(label, str) and label else "the response surface"

@@ -299,13 +299,13 @@ class Fitter:
             except ValueError as err:
                 done[key] = err
                 continue
-            looped = tuple(id(c) for c in cores if hasattr(c, "in_workers"))
+            looped = tuple(id(c) for c in cores if c.in_loop)
             if looped:
                 groups.setdefault(looped, []).append(key)
             else:
                 done.update(attempt([key]))
         if len(groups) > 1:
-            cores = [c for group in groups.values() for c in self.model(group[0]).cores if hasattr(c, "in_workers")]
+            cores = [c for group in groups.values() for c in self.model(group[0]).cores if c.in_loop]
             with contextlib.ExitStack() as stack:
                 for core in cores:
                     stack.enter_context(core.in_workers())

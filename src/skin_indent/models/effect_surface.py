@@ -32,7 +32,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..response_surface import SurfaceGrid, default_cache_dir, default_settings, default_unit_curve
+from ..response_surface import SurfaceCore, SurfaceGrid, default_cache_dir, default_settings, default_unit_curve
 from ..runtime.executors import Executor
 from ..effects import ELASTIC, EffectAxis, effect
 from ..effects import Model
@@ -72,7 +72,7 @@ def model_unit_curve(nu: float, depth_mm, *, effects: tuple, parameters: tuple, 
     return Model(tuple(effects), radius_mm).simulate(theta, np.asarray(depth_mm, float), mesh=mesh).force_mN
 
 
-class EffectSurface:
+class EffectSurface(SurfaceCore):
     """Force ``F(h; E_kPa, nu, effect parameters...)`` (mN), interpolated from cached FE runs.
 
     Implements the force-model protocol of :mod:`skin_indent.inverse`

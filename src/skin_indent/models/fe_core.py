@@ -146,6 +146,9 @@ class FECore:
         them solved here, ``cached`` read; ``run_time_s`` the wall time of both.
     """
 
+    #: the runs are made during the fit (the protocol of :class:`~skin_indent.models.core.ElasticCore`)
+    in_loop = True
+
     def __init__(self, effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: float, mesh: str = "coarse",
                  workers: int | None = None, run_cache=None):
 
