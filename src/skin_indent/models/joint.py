@@ -87,7 +87,7 @@ class JointModel:
         names, lo, hi = [], [], []
         self._index = []
         for k, part in enumerate(self.parts):
-            own = {n for e in part.effects if getattr(e, "per_curve", False) for n in e.fit_names}
+            own = {n for e in part.effects if e.per_curve for n in e.fit_names}
             idx = []
             for i, n in enumerate(part.parameter_names):
                 joint = curve_name(n, k) if n in own else n
@@ -219,7 +219,7 @@ class JointModel:
         out, own = {}, {}
         for k, p in enumerate(self.parts):
             values = p.model_parameters(x[self._index[k]])
-            mine = {n for e in p.effects if getattr(e, "per_curve", False) for n in e.parameter_names}
+            mine = {n for e in p.effects if e.per_curve for n in e.parameter_names}
             for n, v in values.items():
                 if n in mine:
                     own[curve_name(n, k)] = v
