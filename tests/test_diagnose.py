@@ -153,7 +153,7 @@ def test_json_schema(hidden, run):
 # ------------------------------------------------------------------ our own hidden effects
 def _synthetic(model_effects, theta, *, sigma, seed, protocol=None, depth=0.6, points=100):
     from skin_indent.effects import Model
-    from skin_indent.protocol import Protocol
+    from skin_indent.mechanics.protocol import Protocol
 
     protocol = protocol or Protocol.ramp(depth, points, 0.02)
     curve = Model(tuple(model_effects)).simulate(theta, protocol=protocol, mesh="coarse")
@@ -166,7 +166,7 @@ def _synthetic(model_effects, theta, *, sigma, seed, protocol=None, depth=0.6, p
 def own_cases():
     import math as _m
 
-    from skin_indent.protocol import Protocol
+    from skin_indent.mechanics.protocol import Protocol
 
     hold = Protocol.ramp(0.6, 60, 0.05, hold_s=20.0, hold_points=40)
     return {

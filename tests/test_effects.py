@@ -7,7 +7,7 @@ import pytest
 
 from skin_indent.effects import EFFECTS, Model, effect
 from skin_indent.mechanics import NeoHooke
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 
 
 def test_vocabulary_names_and_units():

@@ -22,7 +22,7 @@ from skin_indent.measurement import measurement_from_arrays, prepare
 from skin_indent.models import ComposedModel
 from skin_indent.models.composed import at_physical_limit
 from skin_indent.models.fe_core import FECore
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 
 R = 6.22
 #: one worker runs these tests (the module-scoped diagnosis is made once)

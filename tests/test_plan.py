@@ -30,7 +30,7 @@ from skin_indent.diagnosis.planning import TOO_CLOSE, explanations, plan
 from skin_indent.effects import Model, instances
 from skin_indent.fitting.multistart import MODEL_ERROR
 from skin_indent.measurement import measurement_from_arrays
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 from skin_indent.report import write_plan
 from skin_indent.runtime.provenance import read_provenance
 

@@ -31,7 +31,7 @@ from skin_indent.response_surface import SurfaceCore
 from skin_indent.fitting.model_fit import prepare_curve
 from skin_indent.measurement import load_csv, measurement_from_arrays, save_csv
 from skin_indent.models import ComposedModel, JointModel
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 
 #: noise of the synthetic curves (mN): the forearm-like curve's is 0.05
 NOISE = 0.03

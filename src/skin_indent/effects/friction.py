@@ -15,7 +15,7 @@ import numpy as np
 
 from .base import WEIGHED, Effect, EffectParameter, ForwardSpec
 from ..measurement.scale import Quantity, UnitText
-from ..protocol import Protocol
+from ..mechanics.protocol import Protocol
 from ..response_surface import default_cache_dir
 from ..response_surface import default_settings
 from ..runtime.atomic import atomic_write

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analytic import hertz_force
+from ..mechanics.analytic import hertz_force
 from ..response_surface import SurfaceCore
 
 
