@@ -22,6 +22,7 @@ from ..fitting.knowledge import DETERMINED_BY
 from ..fitting.rung import MODEL_ERROR, Rung
 from ..runtime.json_io import jsonable
 from .criteria import FROM_FE, FROM_FIT, STRONG
+from .segment_misfit import segments_sentence
 
 def _fmt_params(f: Rung, units: DisplayUnits) -> str:
     """A rung's parameters as the text of a diagnosis shows them, ``name = value +- sd``, in ``units``
@@ -160,8 +161,6 @@ class Diagnosis:
 
     def segments_sentence(self, units: DisplayUnits | None = None) -> str:
         """What the last rung leaves on each segment (``"approach explained; retract 12x the noise ..."``)."""
-        from .segment_misfit import segments_sentence
-
         return shown_in(segments_sentence(self.segments, self.joint), self.units if units is None else units) \
             if self.segments else ""
 

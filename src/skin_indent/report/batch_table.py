@@ -11,6 +11,7 @@ draws E per curve and, for force maps, E over the map positions.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -76,8 +77,6 @@ def _middle_ellipsis(text: str, width: int) -> str:
 def _columns(rows) -> tuple:
     """The table columns of rows of one dataclass (:class:`skin_indent.fitting.batch.BatchRow`,
     :class:`skin_indent.diagnosis.DiagnosisRow`)."""
-    import dataclasses
-
     return tuple(f.name for f in dataclasses.fields(rows[0])
                  if f.name not in ("fit", "diagnosis", "parameters", "std")) if rows else ()
 
