@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, Model, instances
+from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, Model, instances, model_name
 from ..inverse import IdentificationResult
 from ..inverse import fit_least_squares
 from ..inverse.residuals import analyse_residuals
@@ -200,7 +200,7 @@ class Fitter:
         names = Model(full, float(self.data.radius_mm)).parameter_names
         if any(k not in names for k in self.fixed):
             return
-        check_points(self.data, len(names) - len(self.fixed), model="neo-hooke" + "".join(f"+{e}" for e in full))
+        check_points(self.data, len(names) - len(self.fixed), model=model_name(full))
 
     def core(self, effects, k: int = 0):
         """The elastic force model of these effects for curve ``k`` (cached per set of elastic effects
@@ -447,7 +447,7 @@ class Fitter:
         curve_rms, curve_white = self._per_curve(r, s, best.n_free)
         base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
         base.update(parameters=params, std=std, bic=math.nan, message=reported_message(best, model, x))
-        rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
+        rung = Rung(**base, model=model_name(key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,

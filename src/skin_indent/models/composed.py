@@ -8,7 +8,7 @@ import numpy as np
 
 from ..effects import DEPTH, ELASTIC, STAGE_ORDER, WEIGHED, Evaluation, instances
 from ..effects.base import stack_parameters
-from ..effects import BASE_PARAMETERS
+from ..effects import BASE_PARAMETERS, model_name
 
 
 class ComposedModel:
@@ -57,7 +57,7 @@ class ComposedModel:
 
     @property
     def name(self) -> str:
-        return "neo-hooke" + "".join(f"+{e.name}" for e in self.effects)
+        return model_name(self.effects)
 
     def _check_depth(self, depth_mm):
         d = np.asarray(depth_mm, dtype=float)
