@@ -385,6 +385,7 @@ def test_add_layer_twice_is_two_layers_in_diagnosis():
     and finds them: the curve (medium mesh, as measured curves have no coarse-mesh node crossings)
     is explained within the noise allowance and the layers are within 3 sd of the truth."""
     from skin_indent.diagnosis import diagnose
+    from skin_indent.diagnosis.measurements import error_model
     from skin_indent.measurement import measurement_from_arrays
     from skin_indent.mechanics.protocol import Protocol
 
@@ -398,7 +399,7 @@ def test_add_layer_twice_is_two_layers_in_diagnosis():
     assert top.forward_runs > 0 and "thickness2_mm" in top.parameters
     # within 1.3x the noise allowance: the noise and the coarse in-loop model's 0.3% (at 27 mN the
     # coarse mesh alone is 0.027 mN RMS from this medium-mesh curve, as far as the noise)
-    allowance = float(np.sqrt(np.mean(d.fitter.sigma(top.prediction_mN) ** 2)))
+    allowance = float(np.sqrt(np.mean(error_model(top.prediction_mN, d.noise_mN) ** 2)))
     assert top.rms_mN < 1.3 * allowance, d.report()
     for k in ("E_kPa", "thickness_mm", "ratio", "thickness2_mm"):
         assert abs(top.parameters[k] - truth[k]) < 3 * top.std[k], (k, top.parameters[k], top.std[k])
