@@ -59,7 +59,7 @@ def test_fe_core_is_the_forward_model(core):
     F = core.force(h, TWO_LAYERS)
     spec = core.spec(TWO_LAYERS[1:])
     sample = spec.sample()
-    direct = simulate(sample, SphericalIndenter(R), h, mesh=core._mesh(sample), solve_at_outputs=True).force_mN
+    direct = simulate(sample, SphericalIndenter(R), h, mesh=core.scheduler.mesh(sample), solve_at_outputs=True).force_mN
     assert np.max(np.abs(TWO_LAYERS[0] * direct - F) / F) < 2e-3  # measured 1.4e-3 at 0.05 mm, < 5e-4 beyond
     assert core.runs - runs <= 1
     # a screening run only ranks starts: close to the fit's run, kept apart from it
@@ -149,7 +149,7 @@ def test_secant_updates_carry_the_thickness_columns_between_fresh_differences(co
 def test_a_run_that_fails_is_not_made_again(monkeypatch):
     """A run that does not converge fails its evaluation with one line, every time it is asked
     for, without being made again (a screen of many starts goes on without it)."""
-    import skin_indent.models.fe_core as fe_core
+    import skin_indent.models.fe_scheduler as fe_scheduler
 
     calls = []
 
@@ -157,7 +157,7 @@ def test_a_run_that_fails_is_not_made_again(monkeypatch):
         calls.append(args)
         raise RuntimeError("Newton did not converge at depth 0.7 mm\nmore")
 
-    monkeypatch.setattr(fe_core, "solve_unit", failing)
+    monkeypatch.setattr(fe_scheduler, "solve_unit", failing)
     one = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
     theta = np.array([8.0, 0.45, 0.9, 0.0])
     for _ in range(2):
@@ -176,8 +176,8 @@ def test_a_run_in_workers_is_the_run_made_here():
     with there.in_workers():
         F = there.force(h, theta)
         J = there.jacobian(h, theta, columns=[0, 1, 3])
-    assert there._executor is not None and here._executor is None
-    assert there.runs == 1 and not there._in_workers
+    assert there.scheduler._executor is not None and here.scheduler._executor is None
+    assert there.runs == 1 and not there.scheduler.in_workers_now
     assert np.allclose(F, here.force(h, theta), rtol=1e-12, atol=0)
     assert np.allclose(J, here.jacobian(h, theta, columns=[0, 1, 3]), rtol=1e-9, atol=1e-12)
     here.close(), there.close()
@@ -195,6 +195,8 @@ def test_fits_in_the_loop_run_side_by_side():
     from skin_indent.fitting.multistart import Fitter
 
     class Core:
+        in_loop = True  # the finite-element model in the loop, as far as the fitter can tell
+
         def __init__(self):
             self.inside = False
 
@@ -226,7 +228,7 @@ def test_fits_in_the_loop_run_side_by_side():
         def model(self, key):
             if key == ("layer", "friction"):
                 raise ValueError("friction needs a ramp")
-            core = cores.get(key, object())
+            core = cores.get(key, SimpleNamespace(in_loop=False))  # a surface's core
             return SimpleNamespace(core=core, cores=(core,))  # a fitted model's cores (one per curve of a sample)
 
         def fit(self, key):

@@ -10,6 +10,7 @@ every run is made in this process).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import multiprocessing
 import os
@@ -153,40 +154,41 @@ def test_fe_core_keys_differ_with_everything_that_determines_a_run(tmp_path):
     solved (nor any mesh built) here."""
     from skin_indent.models.fe_core import RTOL
     from skin_indent.models.fe_runs import FIRST, INCREMENTS
+    from skin_indent.models.fe_scheduler import Run
 
     cache = RunCache(tmp_path)
 
-    def core_of(mesh="coarse"):
-        return FECore(("layer", "layer"), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1, mesh=mesh,
-                      run_cache=cache)
+    def core_of(mesh="coarse", radius_mm=R, max_depth_mm=0.6):
+        return FECore(("layer", "layer"), radius_mm=radius_mm, max_depth_mm=max_depth_mm, e_star_kPa=8.0, workers=1,
+                      mesh=mesh, run_cache=cache)
 
     core = core_of()
     sample = core.spec(TWO_LAYERS[1:]).sample(merge=False)
     ref = [float(v) for v in sample.interfaces_mm]
-    base = (sample, R, core.ceiling_mm, None, RTOL, True, INCREMENTS, FIRST)
+    base = Run(TWO_LAYERS[1:], sample, RTOL, True, INCREMENTS, FIRST)
 
-    def key(args=base, reference=ref, on=core):
-        return cache.key(on.run_parts(args, reference))
+    def key(run=base, reference=ref, on=core, **changes):
+        return cache.key(on.run_parts(dataclasses.replace(run, **changes), reference))
 
     other = core.spec((TWO_LAYERS * [1, 1, 1.1, 1, 1, 1])[1:]).sample(merge=False)
     keys = {
         "as built": key(),
-        "another sample, on its own mesh": key((other, *base[1:]), [float(v) for v in other.interfaces_mm]),
-        "another sample, morphed from the same mesh": key((other, *base[1:])),
-        "another radius": key((sample, 2 * R, *base[2:])),
-        "deeper": key((sample, R, 2 * core.ceiling_mm, *base[3:])),
-        "fewer depths": key((*base[:6], 14, FIRST)),
-        "from deeper": key((*base[:7], 0.05)),
-        "looser": key((*base[:4], 1e-5, *base[5:])),
-        "no sensitivities": key((*base[:5], False, *base[6:])),
+        "another sample, on its own mesh": key(sample=other, reference=[float(v) for v in other.interfaces_mm]),
+        "another sample, morphed from the same mesh": key(sample=other),
+        "another radius": key(on=core_of(radius_mm=2 * R)),
+        "deeper": key(on=core_of(max_depth_mm=1.2)),
+        "fewer depths": key(increments=14),
+        "from deeper": key(first=0.05),
+        "looser": key(rtol=1e-5),
+        "no sensitivities": key(sensitivities=False),
         "medium mesh": key(on=core_of("medium")),
         "morphed from elsewhere": key(reference=[v * 1.1 for v in ref]),
         "a half-space mesh reference": key(reference=None),
     }
     assert len(set(keys.values())) == len(keys), keys
     assert key(on=core_of()) == keys["as built"]  # another core (another process) names the same run alike
-    # the mesh passed to the solver is not part of the key (it follows from the rest)
-    assert key((*base[:3], "any mesh", *base[4:])) == keys["as built"]
+    # the parameters (what warm starts compare) are not part of the key: the sample is
+    assert key(rest=TWO_LAYERS[1:] * 1.0001) == keys["as built"]
 
 
 @pytest.mark.fe_loop  # finite elements in the loop: .ci/run runs it, not the default run
@@ -230,7 +232,7 @@ def test_a_rerun_of_a_fit_in_the_loop_solves_nothing(tmp_path, solves):
 
 
 def test_a_failed_run_in_the_loop_is_not_tried_again_by_a_rerun(tmp_path, monkeypatch):
-    import skin_indent.models.fe_core as fe_core
+    import skin_indent.models.fe_scheduler as fe_scheduler
 
     calls = []
 
@@ -238,7 +240,7 @@ def test_a_failed_run_in_the_loop_is_not_tried_again_by_a_rerun(tmp_path, monkey
         calls.append(args)
         raise ConvergenceError("Newton did not converge at depth 0.7 mm\nmore")
 
-    monkeypatch.setattr(fe_core, "solve_unit", failing)
+    monkeypatch.setattr(fe_scheduler, "solve_unit", failing)
     theta = np.array([8.0, 0.45, 0.9, 0.0])
     for _ in range(2):  # two cores, as two processes: the second reads the failure
         core = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1,

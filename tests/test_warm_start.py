@@ -22,7 +22,7 @@ LAYER = np.array([8.0, 0.45, 0.9, 0.5])  # E, nu, thickness (mm), compliance of 
 def _layer_sample():
     core = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
     sample = core.spec(LAYER[1:]).sample(merge=False)
-    return sample, core._mesh(sample), np.geomspace(0.007, 0.7, 10)
+    return sample, core.scheduler.mesh(sample), np.geomspace(0.007, 0.7, 10)
 
 
 def test_a_warm_start_gives_the_cold_solution():
@@ -56,7 +56,7 @@ def test_a_history_dependent_problem_refuses_a_warm_start():
 def test_fe_core_warm_starts_from_the_nearest_run(monkeypatch):
     """Two evaluations 1% apart in the thickness and the compliance: the second is warm-started from the
     first, and equals what a core that never warm-starts gives (same mesh reference) to 1e-7."""
-    import skin_indent.models.fe_core as fe_core
+    import skin_indent.models.fe_scheduler as fe_scheduler
 
     h = np.linspace(0.05, 0.6, 9)
     step = LAYER * np.array([1.0, 1.0, 1.01, 0.99])
@@ -68,13 +68,13 @@ def test_fe_core_warm_starts_from_the_nearest_run(monkeypatch):
     warm = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
     a, b = two(warm)
     assert warm.warm_starts == 1 and warm.runs == 2
-    monkeypatch.setattr(fe_core, "WARM_DISTANCE", -1.0)  # never warm
+    monkeypatch.setattr(fe_scheduler, "WARM_DISTANCE", -1.0)  # never warm
     cold = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
     c, d = two(cold)
     assert cold.warm_starts == 0
     assert np.array_equal(a, c) and np.allclose(b, d, rtol=1e-7, atol=0)
     # nothing within reach: a start 50% away runs cold
-    monkeypatch.setattr(fe_core, "WARM_DISTANCE", 0.2)
+    monkeypatch.setattr(fe_scheduler, "WARM_DISTANCE", 0.2)
     with warm.iterating():
         warm.force(h, LAYER * np.array([1.0, 1.0, 1.5, 1.0]), sensitivities=False)
     assert warm.warm_starts == 1

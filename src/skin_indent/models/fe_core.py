@@ -33,7 +33,7 @@ What keeps it cheap and smooth:
 - **Cheap screening.** Start vectors are ranked by runs with fewer solved depths and a
   looser tolerance (:meth:`FECore.screening`), kept apart from the fit's runs.
 - **Warm starts.** A run starts Newton's method at every depth from the converged fields of
-  the nearest run made before on a mesh of the same topology (:meth:`FECore.warm_start`):
+  the nearest run made before on a mesh of the same topology (:meth:`~.fe_scheduler.RunScheduler.warm_start`):
   the steps of a fit and its finite differences are then 2.5-5x cheaper (1-3 Newton
   iterations per depth instead of 4-7 on layers), the forces the same to the Newton tolerance.
 - **A run cache.** With a :class:`~skin_indent.response_surface.RunCache` (``run_cache``) every
@@ -57,30 +57,21 @@ mN, with the muscle a half-space as in the truth, whose deep interface makes eac
 
 from __future__ import annotations
 
-import collections
 import contextlib
-import sys
-import time
-import weakref
 
 import numpy as np
 
 from ..effects import ELASTIC, ForwardSpec, instances, model_name
-from ..response_surface import RunFailed, nice_depth
-from ..response_surface.run_cache import module_digest
 from ..effects.base import stack_parameters
-from ..runtime.executors import available_cpus, make_executor
-from . import fe_runs
-from .fe_runs import (FIRST, INCREMENTS, as_arrays, from_arrays, geometry, material_parameters, morph, solve_unit,
-                      solved_depths)
+from ..response_surface import nice_depth
+from .fe_runs import FIRST, INCREMENTS, geometry, material_parameters
+from .fe_scheduler import Run, RunScheduler
 
 #: Newton tolerance of the runs in the loop: finite differences of relative step
 #: :data:`RELATIVE_STEP` need forces converged far below the step
 RTOL = 1e-8
 #: relative step of the one-sided finite differences in the core parameters
 RELATIVE_STEP = 1e-4
-#: a thickness may move by these factors before the mesh is rebuilt for it
-MORPH_RANGE = (0.8, 1.25)
 #: solved depths of the runs within the iterations of a fit (:meth:`FECore.iterating`); the
 #: fit's result (force, Jacobian, covariance) comes from a run of :data:`INCREMENTS` at its
 #: end. Against runs of 40 on the coarse mesh (100 depths to 0.6 mm; one layer, two layers,
@@ -105,13 +96,6 @@ SCREEN_INCREMENTS, SCREEN_RTOL, SCREEN_FIRST = 8, 1e-5, 0.05
 #: within a fit (:meth:`FECore.iterating`), the differenced columns (thicknesses) of a Jacobian
 #: are recomputed by runs every this many Jacobians and carried by secant updates in between
 SECANT_REFRESH = 3
-#: a run starts Newton's method at every depth from the converged fields of the nearest run made
-#: before on a mesh of the same topology (morphed from the same reference) when no core parameter
-#: after E differs by more than this fraction (of its value, or of 5% of its range near 0); see
-#: :meth:`FECore.warm_start`
-WARM_DISTANCE = 0.2
-#: converged fields of this many recent runs are kept per core for warm starts (~0.5 MB each)
-WARM_KEPT = 12
 
 
 class FECore:
@@ -164,21 +148,10 @@ class FECore:
         self.parameter_names = tuple(names)
         self.bounds = (np.array(lo, dtype=float), np.array(hi, dtype=float))
         self.relative_step = RELATIVE_STEP
-        self._curves: dict = {}
-        self._failed: dict = {}  # runs that did not converge: {key: error}
         self._screening = False
-        self._in_workers = False
-        self._cancelled = False
         self._secant, self._last = False, None
-        self._ref = None
-        self._ref_serial = 0  # counts the reference meshes: morphs of one share its topology
-        self._meshes = collections.OrderedDict()  # serial -> the mesh built for that reference
-        self._fields = collections.OrderedDict()  # recent runs: key -> (rest, reference serial, {depth: field})
-        self.warm_starts = 0
-        self._executor = None
-        self.run_cache = run_cache
-        self.runs = self.made = self.cached = 0
-        self.run_time_s = 0.0
+        self.scheduler = RunScheduler(self.radius_mm, self.ceiling_mm, mesh, self.bounds[0][1:], self.bounds[1][1:],
+                                      workers=workers, run_cache=run_cache)
 
     @property
     def name(self) -> str:
@@ -212,74 +185,16 @@ class FECore:
                              f"finite-element fit")
         return theta
 
-    # ----------------------------------------------------------------- meshes
-    def _reference(self, sample) -> tuple:
-        """The mesh reference of a sample: ``(serial, interfaces (mm) or None)``.
-
-        The reference (the interfaces a mesh is built for) is kept while a sample has the
-        same number of interfaces and base and each interface within :data:`MORPH_RANGE` of
-        the reference's; otherwise the sample's interfaces are the new reference (``serial``
-        counts references: the meshes of one share its topology). Nothing is built here: a
-        run read from the run cache needs no mesh.
-        """
-        from ..mechanics.layers import LayeredSample
-
-        if not isinstance(sample, LayeredSample):
-            key = (0, False)
-            if self._ref is None or self._ref[0] != key:
-                self._ref = (key, None)
-                self._ref_serial += 1
-            return self._ref_serial, None
-        interfaces = np.asarray(sample.interfaces_mm, dtype=float)
-        key = (interfaces.size, sample.rigid_base)
-        if self._ref is not None and self._ref[0] == key:
-            ratio = interfaces / self._ref[1]
-            if np.all((ratio >= MORPH_RANGE[0]) & (ratio <= MORPH_RANGE[1])):
-                return self._ref_serial, self._ref[1]
-        self._ref = (key, interfaces)
-        self._ref_serial += 1
-        return self._ref_serial, interfaces
-
-    def _built(self, serial: int, reference, sample):
-        """The mesh of reference ``serial`` (built once, for the interfaces ``reference``), morphed to the
-        interfaces of ``sample``."""
-        from ..mechanics.mesh import graded_mesh
-
-        imesh = self._meshes.get(serial)
-        if imesh is None:
-            if reference is None:
-                imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name)
-            elif sample.rigid_base:
-                imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=reference[:-1],
-                                    rigid_base_mm=float(reference[-1]))
-            else:
-                imesh = graded_mesh(self.radius_mm, self.ceiling_mm, self.mesh_name, interfaces_mm=reference)
-            self._meshes[serial] = imesh
-            while len(self._meshes) > 4:
-                self._meshes.popitem(last=False)
-        if reference is None:
-            return imesh
-        interfaces = np.asarray(sample.interfaces_mm, dtype=float)
-        if np.array_equal(interfaces, reference):
-            return imesh
-        return morph(imesh, reference, interfaces, sample.rigid_base)
-
-    def _mesh(self, sample):
-        """The (possibly morphed) mesh for a sample: same interfaces as the reference -> morph."""
-        serial, reference = self._reference(sample)
-        return self._built(serial, reference, sample)
-
-    def reset_mesh(self) -> None:
-        """Build the mesh anew for the next parameters (a new reference for morphing)."""
-        self._ref = None
-        self._ref_serial += 1
-
-    # ----------------------------------------------------------------- runs
+    # ----------------------------------------------------------------- runs (the scheduler's)
     def _key(self, rest) -> tuple:
         key = tuple(float(f"{v:.12g}") for v in np.asarray(rest, dtype=float))
         if self._screening:
             return ("screen",) + key
         return ("iterating",) + key if self._secant else key
+
+    @property
+    def _curves(self) -> dict:
+        return self.scheduler.curves
 
     @contextlib.contextmanager
     def screening(self):
@@ -292,192 +207,87 @@ class FECore:
         finally:
             self._screening = False
 
-    @contextlib.contextmanager
     def in_workers(self):
         """Within the block every run goes to the worker processes, a single one too, and this
         process only waits for it: fits of several cores, each in a thread of this process
         (:meth:`~skin_indent.fitting.multistart.Fitter.fit_all`), then share the cores."""
-        before, self._in_workers = self._in_workers, True
-        try:
-            yield self
-        finally:
-            self._in_workers = before  # re-entrant: a joint model's curves inside a fit of fit_all
+        return self.scheduler.in_workers()
 
     def start_workers(self) -> None:
         """Start the worker processes now, from the calling thread (the main one, before threads
-        that make runs in them start: :meth:`~.LocalProcesses.start`)."""
-        self._pool().start()
+        that make runs in them start)."""
+        self.scheduler.start_workers()
 
     def cancel(self) -> None:
         """Refuse every further run (``RuntimeError``): a fit in another thread stops at its next
         run when the diagnosis is interrupted."""
-        self._cancelled = True
+        self.scheduler.cancelled = True
 
-    def _pool(self):
-        if self._executor is None:
-            workers = self.workers if self.workers is not None else min(2, available_cpus())
-            self._executor = make_executor(workers)
-            weakref.finalize(self, self._executor.close)
-        return self._executor
+    def reset_mesh(self) -> None:
+        """Build the mesh anew for the next parameters (a new reference for morphing)."""
+        self.scheduler.reset_mesh()
 
     def prefetch(self, thetas) -> None:
         """Make the runs of several parameter vectors (full ``theta``) at once, in parallel."""
         self._run([self._check(theta)[1:] for theta in thetas])
 
     def _run(self, rests, sensitivities: bool = False) -> None:
-        if self._cancelled:
+        """Have the scheduler make the runs of the core parameters after E ``rests`` that it has not made."""
+        runs = self.scheduler
+        if runs.cancelled:
             raise RuntimeError("the finite-element fit was cancelled")
-        todo, where = {}, {}  # the runs to make, and (rest, mesh reference serial, reference interfaces) of each
+        todo = {}
         failed = None
         for rest in rests:
             key = self._key(rest)
-            if key in self._failed:  # a run that did not converge is not made again
-                failed = failed or (key, self._failed[key])
+            if key in runs.failed:  # a run that did not converge is not made again
+                failed = failed or (key, runs.failed[key])
                 continue
-            have = self._curves.get(key)
+            have = runs.curves.get(key)
             if (have is None or (sensitivities and have[2] is None)) and key not in todo:
-                sample = self.spec(rest).sample(merge=False)
-                serial, reference = self._reference(sample)
-                where[key] = (np.array(rest, dtype=float), serial, reference)
-                # the mesh (None here) is built only for a run that is solved (_compute)
-                if self._screening:
-                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, None, SCREEN_RTOL, False,
-                                 SCREEN_INCREMENTS, SCREEN_FIRST)
-                else:
-                    todo[key] = (sample, self.radius_mm, self.ceiling_mm, None, RTOL, sensitivities,
-                                 FIT_INCREMENTS if self._secant else INCREMENTS, FIRST)
-        t0 = time.perf_counter()
-        for key, value in self._solve(todo, where).items():
-            if isinstance(value, BaseException):
-                self._failed[key] = value
-                failed = failed or (key, value)
-            else:
-                self._curves[key] = value
-        self.runs += len(todo)
-        self.run_time_s += time.perf_counter() - t0
+                todo[key] = self.run_of(rest, sensitivities)
+        failed = runs.make(todo) or failed
         if failed is not None:  # one line for the fits: this start or step is not evaluated
             key, err = failed
             values = ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.parameter_names[1:], key[-len(rests[0]):]))
             raise ValueError(f"finite-element run failed at {values}: {str(err).splitlines()[0]}")
 
-    def warm_start(self, rest, serial: int, depths) -> list | None:
-        """The converged fields (one per depth of ``depths``, None where it has none) of the nearest
-        run kept (:data:`WARM_KEPT`) on a mesh of reference ``serial`` whose core parameters after E
-        are within :data:`WARM_DISTANCE` of ``rest``; None if there is no such run.
+    def run_of(self, rest, sensitivities: bool = False) -> Run:
+        """The :class:`~.fe_scheduler.Run` of the core parameters after E ``rest``: the unit-modulus
+        sample, solved as a screen's run, a fit's iteration's or a result's."""
+        sample = self.spec(rest).sample(merge=False)
+        rest = np.array(rest, dtype=float)
+        if self._screening:
+            return Run(rest, sample, SCREEN_RTOL, False, SCREEN_INCREMENTS, SCREEN_FIRST)
+        return Run(rest, sample, RTOL, sensitivities, FIT_INCREMENTS if self._secant else INCREMENTS, FIRST)
 
-        Newton's method then starts at every depth from a state converged for a nearby sample
-        instead of the predictor's: measured on the forearm-like two layers and layer with
-        stiffening (coarse mesh, 14 depths), 1 iteration per depth instead of 4-7 for a
-        finite-difference step, 2-3 for a step of 1-5% in a thickness or a modulus ratio, runs
-        2.5-5x cheaper, forces within 1e-8 of a cold run (the Newton tolerance).
-        """
-        lo, hi = (np.asarray(b, dtype=float)[1:] for b in self.bounds)
-        rest = np.asarray(rest, dtype=float)
-        scale = np.maximum(np.abs(rest), 0.05 * (hi - lo))
-        best, best_d = None, WARM_DISTANCE
-        for key, (other, other_serial, fields) in self._fields.items():
-            if other_serial != serial:
-                continue
-            d = float(np.max(np.abs(other - rest) / scale))
-            if d <= best_d:
-                best, best_d = key, d
-        if best is None:
-            return None
-        fields = self._fields[best][2]
-        initial = [fields.get(float(h)) for h in depths]
-        return initial if any(f is not None for f in initial) else None
+    def run_parts(self, run: Run, reference_mm) -> dict:
+        """The run cache's key parts of ``run`` (:meth:`~.fe_scheduler.RunScheduler.run_parts`)."""
+        return self.scheduler.run_parts(run, reference_mm)
 
-    def _keep_fields(self, key, rest, serial: int, fields) -> None:
-        self._fields[key] = (rest, serial, {float(h): u for h, u in fields})
-        self._fields.move_to_end(key)
-        while len(self._fields) > WARM_KEPT:
-            self._fields.popitem(last=False)
+    @property
+    def runs(self) -> int:
+        return self.scheduler.runs
 
-    def _compute(self, todo: dict, where: dict, keys: list):
-        """Solve the runs ``keys`` of ``todo`` (``where``: their parameters and mesh references):
-        ``(key, run, error)`` as they finish (one alone here, unless :meth:`in_workers`; several in
-        the worker processes), each on its mesh (built here), warm-started from the nearest run made
-        before (:meth:`warm_start`); their converged fields are kept for the next."""
-        tasks = {}
-        for key in keys:
-            args = todo[key]
-            rest, serial, reference = where[key]
-            imesh = self._built(serial, reference, args[0])
-            depths = solved_depths(args[0], args[2], args[6], args[7])
-            initial = self.warm_start(rest, serial, depths)
-            self.warm_starts += initial is not None
-            tasks[key] = (*args[:3], imesh, *args[4:], initial)
+    @property
+    def made(self) -> int:
+        return self.scheduler.made
 
-        def done(key, value, error):
-            if error is not None:
-                return key, None, error
-            h, F, S, fields = value
-            self._keep_fields(key, *where[key][:2], zip(h, fields))
-            return key, (h, F, S), None
+    @property
+    def cached(self) -> int:
+        return self.scheduler.cached
 
-        if len(keys) == 1 and not self._in_workers:
-            key = keys[0]
-            try:
-                value = solve_unit(*tasks[key])
-            except Exception as err:  # noqa: BLE001 - a run that does not converge is a failed evaluation
-                yield key, None, err
-            else:
-                yield done(key, value, None)
-        elif keys:
-            for key, value, error in self._pool().imap_unordered(solve_unit, tasks.items()):
-                yield done(key, value, error)
+    @property
+    def warm_starts(self) -> int:
+        return self.scheduler.warm_starts
 
-    def run_parts(self, args, reference_mm) -> dict:
-        """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of the run of :func:`solve_unit`
-        arguments ``args`` (its mesh left out) on a mesh morphed from one built for the interfaces
-        ``reference_mm`` (None: a half-space): the sample as built, the sphere radius, the depths
-        solved (the increments and the first depth), the mesh (its family member, the reference
-        and the base; with the sample's interfaces and the sources they determine its nodes), the
-        Newton tolerance, the sensitivities or not, and the digest of this module (which morphs the
-        meshes). A warm start (:meth:`warm_start`) is not part of it: it changes the result only
-        to the Newton tolerance."""
-        sample, radius_mm, ceiling_mm, _, rtol, sensitivities, increments, first = args[:8]
-        reference = None if reference_mm is None else [float(v) for v in reference_mm]
-        return {"run": "skin_indent.models.fe_core unit-modulus run", "code": module_digest(sys.modules[__name__], fe_runs),
-                "sample": repr(sample), "radius_mm": float(radius_mm), "ceiling_mm": float(ceiling_mm),
-                "increments": int(increments), "first": float(first),
-                "depth_mm": solved_depths(sample, ceiling_mm, increments, first).tolist(),
-                "mesh": self.mesh_name, "mesh_reference_mm": reference,
-                "mesh_rigid_base": bool(getattr(sample, "rigid_base", False)),
-                "rtol": float(rtol), "sensitivities": bool(sensitivities)}
+    @property
+    def run_time_s(self) -> float:
+        return self.scheduler.run_time_s
 
-    def _solve(self, todo: dict, where: dict) -> dict:
-        """``{key: run or exception}`` of the runs ``todo`` (``{key: arguments of solve_unit}``; ``where``:
-        ``{key: (rest, mesh serial, reference interfaces)}``): read from the run cache where it has them
-        (a run with sensitivities also serves one without), else solved (and kept there)."""
-        if not todo:
-            return {}
-        if self.run_cache is None:
-            out = {key: value if error is None else error
-                   for key, value, error in self._compute(todo, where, list(todo))}
-            self.made += len(out)
-            return out
-        out, parts = {}, {}
-        for key, args in todo.items():
-            parts[key] = self.run_parts(args, where[key][2])
-            if not args[5]:  # without sensitivities: the run with them serves too
-                with contextlib.suppress(RunFailed):
-                    arrays = self.run_cache.load(self.run_cache.key({**parts[key], "sensitivities": True}))
-                    if arrays is not None:
-                        out[key] = from_arrays(arrays, False)
-        rest = {key: p for key, p in parts.items() if key not in out}
-        before = dict(self.run_cache.counts)
-
-        def compute(keys):
-            for key, run, error in self._compute(todo, where, keys):
-                yield key, None if run is None else as_arrays(run), error
-
-        for key, value in self.run_cache.get_or_compute_many(rest, compute).items():
-            out[key] = value if isinstance(value, BaseException) else from_arrays(value, todo[key][5])
-        solved = sum(self.run_cache.counts[k] - before[k] for k in ("computed", "failed"))
-        self.made += solved
-        self.cached += len(todo) - solved
-        return out
+    @property
+    def run_cache(self):
+        return self.scheduler.run_cache
 
     def unit_force(self, depth_mm, rest, *, sensitivities: bool = True) -> np.ndarray:
         """Force (mN) at E = 1 kPa of the core parameters after E, at depths 0 < h <= ceiling (mm).
@@ -587,6 +397,5 @@ class FECore:
         return J
 
     def close(self) -> None:
-        if self._executor is not None:
-            self._executor.close()
-            self._executor = None
+        """Stop the worker processes."""
+        self.scheduler.close()
