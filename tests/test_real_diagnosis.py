@@ -10,7 +10,7 @@ layer and stiffening surfaces of three AFM radii are hundreds of finite-element 
 default run. The creep files have no recorded radius: R = 30 um is assumed (their indentations reach
 13-15 um, h/R <= 0.5 as the surfaces need); the two force-distance curves of JPK files (spot3, map2x2)
 have none either: R = 18.64 um is assumed (the bead of the force-save example, same instrument type);
-the instrument's verdict does not depend on it.
+the instrument's verdict does not depend on it. Those two are diagnosed with -m slow only (about a minute each).
 """
 
 import numpy as np
@@ -29,13 +29,33 @@ RADII = {"chiaro_AEBP1_R27.5um.csv": 0.0275, "jpk_force-save-example_R18.64um.cs
 SAMPLE = ("viscoelastic", "adhesion")
 
 
+#: curves diagnosed only with -m slow (each about a minute on a loaded machine): the public force-distance curves
+SLOW = ("jpk_fd_spot3-0192_Runknown.csv", "jpk_fd_map2x2-0_Runknown.csv")
+
+
+def curves(names):
+    """``names`` as pytest parameters, those of :data:`SLOW` marked slow."""
+    return [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in names]
+
+
+class _Diagnoses(dict):
+    """Each curve diagnosed on first use, once per module."""
+
+    def __init__(self, cache):
+        super().__init__()
+        self.cache = cache
+
+    def __missing__(self, name):
+        from skin_indent.diagnosis import diagnose
+
+        self[name] = diagnose(load_csv(REAL / name), radius_mm=RADII[name], candidates=SAMPLE + INSTRUMENT,
+                              in_loop=False, cache_dir=self.cache, mesh="coarse", workers=2)
+        return self[name]
+
+
 @pytest.fixture(scope="module")
 def diagnoses(gallery_cache):
-    from skin_indent.diagnosis import diagnose
-
-    return {name: diagnose(load_csv(REAL / name), radius_mm=R, candidates=SAMPLE + INSTRUMENT, in_loop=False,
-                           cache_dir=gallery_cache, mesh="coarse", workers=2)
-            for name, R in RADII.items()}
+    return _Diagnoses(gallery_cache)
 
 
 def _out_of_contact_retract_rms(d, rung):
@@ -46,7 +66,7 @@ def _out_of_contact_retract_rms(d, rung):
     return float(np.sqrt(np.mean(rung.residual_mN[sel] ** 2)))
 
 
-@pytest.mark.parametrize("name", sorted(RADII))
+@pytest.mark.parametrize("name", curves(sorted(RADII)))
 def test_the_instrument_is_named_as_the_instruments(diagnoses, name):
     d = diagnoses[name]
     if name.startswith("jpk_force-save"):
@@ -68,7 +88,7 @@ NO_TETHERS = ("jpk_force-save-example_R18.64um.csv", "jpk_fd_spot3-0192_Runknown
               "chiaro_AEBP1_R27.5um.csv")
 
 
-@pytest.mark.parametrize("name", NO_TETHERS)
+@pytest.mark.parametrize("name", curves(NO_TETHERS))
 def test_the_retract_past_pull_off_belongs_to_the_instrument(diagnoses, name):
     """Past the pull-off the sample gives no force: on the curves without tethers (their retract lies
     0.04-0.3 nN below the approach from drag, 2-17 nN on the Chiaro's, README) the instrument's effects
@@ -95,7 +115,7 @@ def test_the_chiaro_retract_is_the_drag_of_the_probes_body(diagnoses):
     assert not set(d.missing) & set(INSTRUMENT)
 
 
-@pytest.mark.parametrize("name", sorted(RADII))
+@pytest.mark.parametrize("name", curves(sorted(RADII)))
 def test_what_is_left_is_said_per_segment(diagnoses, name):
     d = diagnoses[name]
     kinds = [m.kind for m in d.segments]
