@@ -52,10 +52,11 @@ def convert(path: Path, out: Path, index: int = 0) -> dict:
     facts = {"file": out.with_suffix(".csv").name, "sha256_16": hashlib.sha256(path.read_bytes()).hexdigest()[:16],
              "k_N_per_m": k, "segment_rows": starts, "segment_t_s": [float(time[i] - time[0]) for i in starts],
              "end_t_s": float(time[-1] - time[0]),
-             "speeds_um_s": (d.metadata.get("speed approach", np.nan) * 1e6, d.metadata.get("speed retract", np.nan) * 1e6),
+             "speeds_um_s": tuple(d.metadata.get(f"speed {k}", np.nan) * 1e6 for k in ("approach", "retract")),
              "rate_Hz": d.metadata.get("rate approach"), "baseline_mN": base, "noise_mN": sd,
              "contact_mm": contact, "max_depth_beyond_mm": float(depth_mm[approach].max() - contact),
-             "peak_above_baseline_mN": float(force_mN.max() - base), "min_below_baseline_mN": float(force_mN.min() - base),
+             "peak_above_baseline_mN": float(force_mN.max() - base),
+             "min_below_baseline_mN": float(force_mN.min() - base),
              "instrument": d.metadata.get("instrument"), "date": str(d.metadata.get("date")),
              "mode": d.metadata.get("imaging mode")}
     _figure(out.with_suffix(".png"), time - time[0], depth_mm, force_mN, seg, base, contact)

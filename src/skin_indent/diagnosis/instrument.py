@@ -113,8 +113,9 @@ def examine_instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, l
     the current model, with the sample's parameters: drag and a drift may each fail alone where
     together they explain the parts out of contact. A combination is not named when it leaves a part out
     of contact worse than the current model (:func:`worsened_out_of_contact`: it buys its BIC in contact)
-    or ends on the far face of its physical range (:func:`at_physical_range`). The combination of lowest BIC (at the effective
-    sample size of these fits) is named when it lowers the BIC by more than :data:`STRONG`. The parts
+    or ends on the far face of its physical range (:func:`at_physical_range`). The combination of lowest
+    BIC (at the effective sample size of these fits) is named when it lowers the BIC by more than
+    :data:`STRONG`. The parts
     out of contact, where the sample gives no force, weigh as much as the rest: the instrument's
     effects are named there first, so that no effect of the sample is named to absorb them.
 
