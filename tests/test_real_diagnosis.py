@@ -115,6 +115,17 @@ def test_the_chiaro_retract_is_the_drag_of_the_probes_body(diagnoses):
     assert not set(d.missing) & set(INSTRUMENT)
 
 
+@pytest.mark.parametrize("name", ["jpk_creep_brain_Runknown.csv", "jpk_creep_polymergel_Runknown.csv"])
+def test_tethers_on_the_retract_are_not_drag(diagnoses, name):
+    """The creep curves pull tethers for 4-15 um past contact on the retract (down to -7 and -11 nN) at the
+    approach's speed, with no mirror on the approach: drag acts both ways, so no drag is named (the body's
+    drag fitted there takes the pull-off and leaves the approach out of contact 0.03 -> 0.62 nN on the gel:
+    refused by examine_instrument), and the retract's pull is the sample's adhesion."""
+    d = diagnoses[name]
+    assert not {"drag", "body_drag"} & set(d.instrument), d.report()
+    assert "adhesion" in d.missing, d.report()
+
+
 @pytest.mark.parametrize("name", curves(sorted(RADII)))
 def test_what_is_left_is_said_per_segment(diagnoses, name):
     d = diagnoses[name]
