@@ -14,7 +14,7 @@ def test_vocabulary_names_and_units():
 
     # one vocabulary everywhere (API, CLI, JSON, reports), in the order of the issue
     assert tuple(EFFECTS) == ("layer", "stiffening", "viscoelastic", "friction", "adhesion", "offset",
-                            "viscoelastic_powerlaw", "drag", "baselines", "hold_baseline")  # then the instrument's (issue 37)
+                            "viscoelastic_powerlaw", "drag", "body_drag", "baselines", "hold_baseline")  # then the instrument's (issue 37)
     for e in EFFECTS.values():
         for p in e.parameters:
             assert p.unit and p.lower <= (p.off if p.off is not None else p.lower) <= p.upper

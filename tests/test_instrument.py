@@ -104,7 +104,7 @@ def test_segment_baseline_is_continuous_and_drifts_at_its_rate():
 
 
 def test_instrument_effects_are_registered_as_the_instruments():
-    assert set(INSTRUMENT) == {"drag", "baselines", "hold_baseline"}
+    assert set(INSTRUMENT) == {"drag", "body_drag", "baselines", "hold_baseline"}
     assert all(EFFECTS[n].instrument and EFFECTS[n].per_curve for n in INSTRUMENT)
     assert not any(e.instrument for n, e in EFFECTS.items() if n not in INSTRUMENT)
 

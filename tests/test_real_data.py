@@ -29,6 +29,8 @@ CURVES = {
     "jpk_force-save-example_R18.64um.csv": (8400, [("approach", 0), ("retract", 6000)], 0.0267),
     "jpk_creep_brain_Runknown.csv": (9000, [("approach", 0), ("hold", 3000), ("retract", 6000)], 0.0168),
     "jpk_creep_polymergel_Runknown.csv": (9000, [("approach", 0), ("hold", 3000), ("retract", 6000)], 0.0277),
+    "jpk_fd_spot3-0192_Runknown.csv": (4000, [("approach", 0), ("retract", 2000)], 0.00477),
+    "jpk_fd_map2x2-0_Runknown.csv": (24060, [("approach", 0), ("retract", 12030)], 0.0294),
 }
 # boundaries are refined onto the physical transition (force peak, speed step): a few samples
 # (here up to 7, i.e. 0.1% of the rows) from the instrument's segment start

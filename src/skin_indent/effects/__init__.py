@@ -27,6 +27,9 @@ sample's parameters and named apart:
 ``drag`` (:mod:`.drag`)
     hydrodynamic drag on the probe: ``eta_mPa_s`` (lubrication near the surface),
     ``drag_N_s_per_m`` (the cantilever's far field).
+``body_drag`` (:mod:`.body_drag`)
+    drag on the probe's body (cantilever, fibre; Alcaraz et al. 2002): ``a_eff_mm`` (effective
+    radius at water's viscosity), ``h_eff_mm`` (effective height above the tip-sample distance).
 ``baselines``, ``hold_baseline`` (:mod:`.segment_baseline`)
     the baseline's drift during the retract and the hold, continuous in time:
     ``retract_drift_mN_per_s``, ``hold_drift_mN_per_s``.
@@ -41,6 +44,7 @@ What an effect is made of, and how to add one: :mod:`.base` (:class:`Effect`) an
 
 from .adhesion import RANGE_MM as ADHESION_RANGE_MM
 from .adhesion import Adhesion
+from .body_drag import BodyDrag
 from .base import BASE_PARAMETERS, DEPTH, ELASTIC, FORCE, HISTORY, STAGE_ORDER, WEIGHED, Effect, EffectAxis, EffectParameter, \
     Evaluation, ForwardSpec
 from .drag import Drag
@@ -58,14 +62,16 @@ from .viscoelastic import Viscoelastic
 #: the contact point as a fit parameter: every fit of a curve recorded from before contact has it
 CONTACT_POINT = Offset()
 
-for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), CONTACT_POINT, PowerLaw(), Drag(),
+for _e in (Layer(), Stiffening(), Viscoelastic(), Friction(), Adhesion(), CONTACT_POINT, PowerLaw(), Drag(), BodyDrag(),
            SegmentBaseline("retract", "baselines"), SegmentBaseline("hold", "hold_baseline")):
     register(_e, replace=True)
 del _e
 
-#: the effects of the instrument (drag, baselines), in registration order
+#: the effects of the instrument (drag, body_drag, baselines), in registration order
 INSTRUMENT = tuple(n for n, e in EFFECTS.items() if e.instrument)
 
-__all__ = ["ADHESION_RANGE_MM", "INSTRUMENT", "Drag", "SegmentBaseline", "BASE_PARAMETERS", "CONTACT_POINT", "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED",
-           "Adhesion", "Effect", "EffectAxis", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset", "BASE_MODEL", "model_name", "parse_effects",
+__all__ = ["ADHESION_RANGE_MM", "INSTRUMENT", "BodyDrag", "Drag", "SegmentBaseline", "BASE_PARAMETERS", "CONTACT_POINT",
+           "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED", "Adhesion", "Effect", "EffectAxis",
+           "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset", "BASE_MODEL",
+           "model_name", "parse_effects",
            "Repeat", "Stiffening", "Viscoelastic", "effect", "instances", "numbered", "register", "unregister"]

@@ -62,8 +62,9 @@ def probe_velocity(time_s: np.ndarray, depth_mm: np.ndarray, kind: np.ndarray | 
     """The probe's velocity (mm/s) at every point, smoothed within each run of one kind of motion.
 
     A local quadratic (Savitzky-Golay) derivative over a window of 5 % of the run (at least 5
-    points), so that the recorded depth's noise does not enter the drag; a run shorter than 5
-    points takes its mean speed.
+    points), so that the recorded depth's noise does not enter the drag, taken along the samples
+    of depth and of time alike (exact on a ramp where the samples are not evenly spaced in time:
+    a last bin of fewer samples); a run shorter than 5 points takes its mean speed.
 
     Parameters
     ----------
@@ -88,8 +89,10 @@ def probe_velocity(time_s: np.ndarray, depth_mm: np.ndarray, kind: np.ndarray | 
             continue
         w = max(5, int(0.05 * n) | 1)
         w = min(w, n if n % 2 else n - 1)
-        smooth = savgol_filter(d[a:b], w, 2, mode="interp")
-        v[a:b] = np.gradient(smooth, t[a:b])
+        # the derivatives of depth and time along the samples, by the same linear smoother: their ratio is
+        # exact on a ramp however the samples are spaced in time (a segment's last bin of fewer samples)
+        v[a:b] = savgol_filter(d[a:b], w, 2, deriv=1, mode="interp") / savgol_filter(t[a:b], w, 2, deriv=1,
+                                                                                     mode="interp")
     return v
 
 
@@ -174,16 +177,20 @@ class Drag(Effect):
         return {"eta_mPa_s": (1e-3 * bounds["eta_mPa_s"][1],),
                 "drag_N_s_per_m": (1e-3 * bounds["drag_N_s_per_m"][1],)}
 
+    def force(self, ev: Evaluation, fit: dict, velocity_mm_s: np.ndarray) -> np.ndarray:
+        """The drag (mN) at every point of ``ev`` at the probe's velocity, before the baseline's part is taken."""
+        separation = np.maximum(-ev.h_mm, 0.0)  # 0 in contact: held at the contact value
+        return (lubrication_force(float(fit["eta_mPa_s"]) * MPA_S, ev.radius_mm, velocity_mm_s, separation,
+                                  GAP_FRACTION * ev.radius_mm)
+                + float(fit["drag_N_s_per_m"]) * velocity_mm_s)
+
     def apply(self, ev: Evaluation, fit: dict) -> None:
         if ev.time_s is None:
-            raise ValueError("drag needs the measurement's time_s")
+            raise ValueError(f"{self.name} needs the measurement's time_s")
         v = ev.cache.get("drag_velocity")
         if v is None:
             v = ev.cache["drag_velocity"] = probe_velocity(ev.time_s, ev.depth_mm, ev.kind)
-        R = ev.radius_mm
-        separation = np.maximum(-ev.h_mm, 0.0)  # 0 in contact: held at the contact value
-        drag = (lubrication_force(float(fit["eta_mPa_s"]) * MPA_S, R, v, separation, GAP_FRACTION * R)
-                + float(fit["drag_N_s_per_m"]) * v)
+        drag = self.force(ev, fit, v)
         ev.force_mN = ev.force_mN + drag - baseline_part(drag, ev.depth_mm, ev.kind, ev.baseline)
 
     def visible(self, data, noise_mN):
