@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..inverse import IdentificationResult
+from .error_model import curve_noise, described
+from .result import ScoredResult, scored
 from ..runtime.provenance import records_call, surface_identity
 from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, check_fixed, check_modulus_range, hertz_modulus,
                              run_method, start_values)
@@ -37,7 +39,7 @@ MISFIT_FLOOR = 0.5
 
 
 @dataclass(frozen=True, eq=False)
-class CurveFit(IdentificationResult):
+class CurveFit(ScoredResult):
     """A fitted recorded curve: the identification (all of :class:`IdentificationResult`) plus
     what was done to the data, Hertz's fit of the same points, and the fit's quality.
 
@@ -71,8 +73,8 @@ class CurveFit(IdentificationResult):
         Per parameter given a prior: prior, posterior, how much the data narrowed it
         (:func:`~skin_indent.fitting.knowledge.prior_summary`).
     error_model : dict
-        How the chi-square and BIC weigh each point (``fit(model=...)``: noise and model error in
-        quadrature; empty for the half-space fit of the paper's path, weighed by the noise alone).
+        How the chi-square and BIC weigh each point (:func:`~skin_indent.fitting.error_model.described`:
+        noise and model error in quadrature; the paper's identification, the noise alone, ``model_error`` 0).
     provenance : dict
         How the fit was made (:func:`skin_indent.runtime.provenance.provenance`): by
         :func:`fit`, its ``api`` call, the arguments given and the curve's data digest.
@@ -206,10 +208,13 @@ class CurveFit(IdentificationResult):
             lines.append(f"E* = E/(1-nu^2) of the top material {self.e_star_kPa * kM:.5g} +/- "
                          f"{self.e_star_std_kPa * kM:.2g} {M}; Hertz's homogeneous small-strain fit of the loading "
                          f"points {h['E_star_kPa'] * kM:.5g} +/- {h['E_star_std_kPa'] * kM:.2g} {M}")
-        if self.error_model:
+        if self.error_model and self.error_model["model_error"]:
             lines.append(f"error model: chi-square and BIC weigh each point by sqrt(noise^2 + "
                          f"({self.error_model['model_error']:g} F)^2), the noise and the forward model's relative "
                          "error (the fit itself is unweighted least squares)")
+        elif self.error_model:
+            lines.append("error model: chi-square and BIC weigh each point by the noise alone (the paper's "
+                         "identification: no model error)")
         q = self.quality
         if q:
             lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN * kF:.3g} {F} = {q['misfit']:.2g} x the noise "
@@ -235,14 +240,14 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
     """The fit's misfit against a noise level independent of the model, and its whiteness.
 
     ``noise`` = ``(noise_mN, source)`` where the fit already has one (default the curve's,
-    :meth:`~skin_indent.measurement.PreparedCurve.noise_mN`); ``white`` where the fit already
+    :func:`~skin_indent.fitting.error_model.curve_noise`); ``white`` where the fit already
     judged its residual (default judged here at that noise). ``ended``: how the fit ended where
     that is not a result (:func:`~skin_indent.fitting.ended.how_it_ended`): the verdict then says
     so (:func:`~skin_indent.fitting.ended.verdict`), whatever the misfit.
     """
     if noise is None:
         try:
-            noise = prepared.noise_mN()
+            noise = curve_noise(prepared)
         except ValueError:
             return {}
     noise, source = noise
@@ -268,27 +273,22 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
             "verdict": verdict}
 
 
-def _independent_noise(prepared) -> tuple[float, str] | None:
-    """The curve's noise level independent of any model, or None when it cannot be estimated."""
-    try:
-        return prepared.noise_mN()
-    except ValueError:
-        return None
-
-
 @records_call("skin_indent.fit")
 def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = "auto", fixed: dict | None = None,
         radius_mm: float | None = None, x0=None, tol: float | None = None, noise_mN: float | None = None,
         context=None, mesh: str | None = None, model=None, priors: dict | None = None, free=(),
         **options) -> CurveFit:
-    """Fit a recorded curve: the paper's neo-Hookean half-space, or the model you choose.
+    """Fit a recorded curve (or several of one sample): one fit for every model.
 
-    Without ``model`` (and without ``priors``): the paper's path, the large-strain
-    neo-Hookean half-space fitted to the loading segment on a response surface by any of
-    the three methods, with Hertz for comparison. With ``model`` (``"neo-hooke+layer+layer"``)
-    or ``priors``: :func:`~skin_indent.fitting.model_fit.fit_model`, the fit the diagnosis
-    makes of that model (every segment, the multistart fitter, response surfaces or
-    finite elements in the loop, the error model), least squares only.
+    Every fit is :func:`~skin_indent.fitting.model_fit.fit_model`, the fit the diagnosis makes
+    of the model (``"neo-hooke"`` by default, ``"neo-hooke+layer+layer"``...): every segment, the
+    multistart fitter, response surfaces or finite elements in the loop, the error model (noise
+    and model error), least squares; ``fit(m)`` is ``fit(m, model="neo-hooke")``, the diagnosis's
+    first rung, to the last digit and BIC included. The paper's identification is an option of it:
+    a filter (``method="ekf-paper"`` or ``"ekf"``), a depth ``window``, a ``surface`` file, start
+    values ``x0``, ``tol`` or a ``contact`` mode fit the neo-Hookean half-space to the loading
+    segment on a response surface as the paper does (the noise alone, no model error), with
+    Hertz for comparison.
 
     Parameters
     ----------
@@ -301,10 +301,11 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         A neo-Hookean surface (any radius: rescaled by similarity); default found in the
         cache or built (``context``, ``mesh``).
     method : {"ekf-paper", "ekf", "lsq"}
+        ``"ekf-paper"`` or ``"ekf"``: the paper's identification (see above).
     window : (float, float), optional
-        Indentation depths past the contact point (mm).
+        Indentation depths past the contact point (mm): the paper's identification.
     contact : {"auto", "fit", "origin"}
-        See :func:`skin_indent.measurement.prepare`.
+        See :func:`skin_indent.measurement.prepare`; other than ``"auto"``: the paper's identification.
     fixed : dict, optional
         ``{"E_kPa": ..., "nu": ..., "offset_mm": ...}`` held fixed (``offset_mm``: the
         contact point, recorded depth in mm). ``nu = 0.5`` is the incompressible limit
@@ -313,8 +314,8 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         held at skin scale (nu fitted, as in the paper); ``nu = 0.5`` at AFM scale (sphere radius
         below 0.5 mm, :func:`skin_indent.measurement.scale.afm_scale`), the AFM field's convention.
     free : sequence of str
-        Parameters fitted that the scale's default holds: ``("nu",)`` fits nu at AFM scale.
-        Not taken with a ``model`` (its fits keep nu free, as the diagnosis).
+        Parameters fitted that the scale's default holds: ``("nu",)`` fits nu at AFM scale (the
+        default holds it for the half-space fitted to one curve only).
     radius_mm : float, optional
         Sphere radius (mm); default the measurement's, else the skin default 6.22 mm.
     x0 : array_like, optional
@@ -324,14 +325,14 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     context : Context, optional
         Where surfaces are cached and built.
     mesh : str, optional
-        Mesh of the finite-element runs behind a built surface (default ``"medium"``; with a
-        ``model``, ``"coarse"`` as the diagnosis).
+        Mesh of the finite-element runs behind a built surface (default ``"coarse"``, as the
+        diagnosis; ``"medium"`` for the paper's identification).
     model : str, optional
         ``"neo-hooke"`` plus ``+effect`` per effect: fit that model (see above).
     priors : dict, optional
-        ``{name: (mean, sd)}`` Gaussian priors on parameters (implies the model path).
+        ``{name: (mean, sd)}`` Gaussian priors on parameters.
     **options
-        Of the model path: ``segments``, ``in_loop`` (see :func:`~skin_indent.fitting.model_fit.fit_model`).
+        ``segments``, ``in_loop`` (see :func:`~skin_indent.fitting.model_fit.fit_model`).
 
     Returns
     -------
@@ -350,7 +351,8 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     --------
     >>> import skin_indent as si
     >>> m = si.load_csv(si.bundled_path("forearm_like.csv"), radius_mm=6.22)
-    >>> result = si.fit(m, window=(0.05, 0.6))                        # doctest: +SKIP
+    >>> result = si.fit(m)                                            # doctest: +SKIP
+    >>> paper = si.fit(m, method="ekf-paper", window=(0.05, 0.6))     # doctest: +SKIP
     >>> result.parameters["E_kPa"], result.quality["verdict"]          # doctest: +SKIP
     """
     if method not in METHODS:
@@ -358,45 +360,69 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     free = tuple(free or ())
     if set(free) - {"nu"}:
         raise ValueError(f"free takes nu (held at 0.5 by default at AFM scale), got {', '.join(free)}")
-    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
-    if several and model is None:
-        model = "neo-hooke"  # several curves of one sample: the model path fits them together
-    if model is not None or priors:
-        if free:
-            raise ValueError("a fit of a chosen model fits nu unless it is held (--fix nu=...): free is not taken")
-        from .model_fit import fit_model, parse_model
-
-        effects = parse_model("neo-hooke" if model is None else model)
-        if method != "lsq":
-            if effects or priors:
-                raise ValueError(f"--method {method} fits the neo-Hookean half-space on a response surface; "
-                                 f"{'the model ' + str(model) if effects else 'priors'} need least squares "
-                                 "(--method lsq)")
-        else:
-            if x0 is not None or tol is not None or surface is not None or window is not None or contact != "auto":
-                raise ValueError("a fit of a chosen model prepares the curve as the diagnosis does: start values, "
-                                 "tol, a surface file, a window and the contact mode are not taken")
-            return fit_model(data, effects, fixed=fixed, priors=priors, noise_mN=noise_mN, radius_mm=radius_mm,
-                             context=context, mesh=mesh or "coarse", **options)
-    if options:
-        raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (they need a model=...)")
-    mesh = mesh or "medium"
     fixed = dict(fixed or {})
     if "nu" in fixed and "nu" in free:
         raise ValueError(f"nu is both held (at {fixed['nu']:g}) and freed: give one of them")
-    by_default = "nu" not in fixed and "nu" not in free and afm_scale(_radius_of(data, radius_mm))
+    paper = paper_identification(method, window=window, contact=contact, surface=surface, x0=x0, tol=tol)
+    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
+    from .model_fit import fit_model, parse_model
+
+    effects = parse_model("neo-hooke" if model is None else model)
+    if paper:
+        if effects or priors or several:
+            what = ("the model " + str(model) if effects else "priors" if priors else "several curves")
+            raise ValueError(f"the paper's identification ({_paper_options(method, window, contact, surface, x0, tol)})"
+                             f" fits the neo-Hookean half-space to one curve's loading segment on a response surface; "
+                             f"{what} need the fit without it (least squares, no window, start values, tol, surface "
+                             "file or contact mode)")
+        if options:
+            raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (not taken with the paper's "
+                            "identification)")
+    # the AFM field's convention: nu = 0.5 held at AFM scale (one curve, the half-space)
+    by_default = (not effects and not several and "nu" not in fixed and "nu" not in free
+                  and afm_scale(_radius_of(data, radius_mm)))
     if by_default:
         fixed["nu"] = 0.5
-    if fixed.get("nu") == 0.5:
-        result = incompressible_limit(data, surface, method, window=window, contact=contact, fixed=fixed,
-                                      radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context,
-                                      mesh=mesh)
-        if by_default:
-            result = dataclasses.replace(result, notes=[*result.notes, NU_DEFAULT_NOTE])
-        return result
-    return with_scale_flags(_fit_half_space(data, surface, method, window=window, contact=contact, fixed=fixed,
-                                            radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context,
-                                            mesh=mesh))
+    if paper:
+        one = dict(surface=surface, method=method, window=window, contact=contact, radius_mm=radius_mm, x0=x0, tol=tol,
+                   noise_mN=noise_mN, context=context, mesh=mesh or "medium")
+        at = lambda nu: _fit_half_space(data, fixed={**fixed, "nu": nu}, **one)  # noqa: E731
+        if fixed.get("nu") != 0.5:
+            return with_scale_flags(_fit_half_space(data, fixed=fixed, **one))
+    else:
+        kwargs = dict(priors=priors, noise_mN=noise_mN, radius_mm=radius_mm, context=context, mesh=mesh or "coarse",
+                      **options)
+        at = lambda nu: fit_model(data, effects, fixed={**fixed, "nu": nu}, **kwargs)  # noqa: E731
+        if fixed.get("nu") != 0.5:
+            return fit_model(data, effects, fixed=fixed or None, **kwargs)
+        if effects or several:
+            raise ValueError(f"nu = 0.5 (the incompressible limit) is taken for the half-space fitted to one curve; "
+                             f"hold nu={NEARLY_INCOMPRESSIBLE_NU} for {model_name_of(effects, several)}")
+    result = _incompressible(at)
+    if by_default:
+        result = dataclasses.replace(result, notes=[*result.notes, NU_DEFAULT_NOTE])
+    return result
+
+
+def model_name_of(effects, several: bool) -> str:
+    """How an error names the model of ``effects`` (and several curves)."""
+    name = "neo-hooke" + "".join(f"+{e}" for e in effects)
+    return name + (" fitted to several curves" if several else "")
+
+
+def paper_identification(method: str = "lsq", *, window=None, contact: str = "auto", surface=None, x0=None,
+                         tol=None) -> bool:
+    """The options ask for the paper's identification (:func:`fit`): a filter (``"ekf-paper"``, ``"ekf"``),
+    a depth window, a surface file, start values, a stop rule or a contact mode."""
+    return bool(_paper_options(method, window, contact, surface, x0, tol))
+
+
+def _paper_options(method, window, contact, surface, x0, tol) -> str:
+    """The options given that ask for the paper's identification, in words ("" for none)."""
+    given = [f"method {method}" if method != "lsq" else "", "a window" if window is not None else "",
+             f"contact {contact}" if contact != "auto" else "", "a surface" if surface is not None else "",
+             "start values" if x0 is not None else "", "tol" if tol is not None else ""]
+    return ", ".join(g for g in given if g)
 
 
 #: the note of a fit whose nu the AFM scale held
@@ -468,13 +494,18 @@ def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm,
         fixed.pop("offset_mm", None)
     # one noise per curve, independent of the model: the uncertainties, chi-square and reduced
     # chi-square are against it (a model that misses the curve shows as a reduced chi-square >> 1)
-    independent = (noise_mN, "given") if noise_mN is not None else _independent_noise(prepared)
+    # (the paper's identification: the noise alone, no model error, the error model's noise rule)
+    try:
+        independent = curve_noise(prepared, noise_mN)
+    except ValueError:
+        independent = None
     sigma = independent[0] if independent else None
     result = run_method(model, depth, F, x0, method, fixed=fixed, tol=tol,
                         noise_mN=sigma if method == "lsq" else noise_mN)
     if sigma is not None and method != "lsq":  # the filters' covariance is their own; the statistics use the noise
         rss = float(result.residuals_mN @ result.residuals_mN)
         result = dataclasses.replace(result, noise_mN=sigma, chi2=rss / sigma**2)
+    score = scored(result.chi2, result.residuals_mN / result.noise_mN, result.n_free)
     hz = run_method(hertz_model, depth, F, hertz_x0, "lsq")
     contact_sd = None
     if mode == "fit":
@@ -497,10 +528,11 @@ def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm,
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its modulus is not to be trusted")
     base = {f.name: getattr(result, f.name) for f in dataclasses.fields(IdentificationResult)}
-    return CurveFit(**base, prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
+    return CurveFit(**base, **score, prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
                     contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                     e_star_std_kPa=e_star_sd, hertz=hertz, quality=q, flags=tuple(flags), notes=notes,
-                    surface=surface_identity(surface) or {})
+                    surface=surface_identity(surface) or {},
+                    error_model=described(result.noise_mN, 0.0) if independent else {})
 
 
 #: the two nu of the compressible law the incompressible limit is extrapolated from
@@ -518,9 +550,12 @@ def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> C
     Checked against Hertz at small depth and against nu = 0.499 in ``tests/test_api.py``.
     """
     fixed = dict(kwargs.pop("fixed", None) or {})
-    kwargs = {"window": None, "contact": "auto", "radius_mm": None, "x0": None, "tol": None, "noise_mN": None,
-              "context": None, "mesh": "medium", **kwargs}
-    fits = {nu: _fit_half_space(data, surface, method, fixed={**fixed, "nu": nu}, **kwargs) for nu in LIMIT_NU}
+    return fit(data, surface, method, fixed={**fixed, "nu": 0.5}, **kwargs)
+
+
+def _incompressible(fit_at) -> CurveFit:
+    """The nu = 0.5 limit from ``fit_at(nu)``, the fits at the nu of :data:`LIMIT_NU` (:func:`incompressible_limit`)."""
+    fits = {nu: fit_at(nu) for nu in LIMIT_NU}
     lo, hi = LIMIT_NU
     e_lo, e_hi = fits[lo].e_star_kPa, fits[hi].e_star_kPa
     e_star = e_hi + (e_hi - e_lo) * (0.5 - hi) / (hi - lo)
@@ -533,6 +568,6 @@ def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> C
                     "({e_hi:.5g}) to {e_star:.5g} ({moved:+.2g}% from nu = {hi:g})", lo=lo, hi=hi,
                     e_lo=Quantity(e_lo, "kPa"), e_hi=Quantity(e_hi, "kPa"), e_star=Quantity(e_star, "kPa"),
                     moved=100 * (e_star / e_hi - 1))
-    notes = [n for n in near.notes if not n.startswith("nu fixed")] + [note]
+    notes = [n for n in near.notes if not n.startswith(("nu fixed", "nu held"))] + [note]
     return with_scale_flags(dataclasses.replace(near, parameters=parameters, std=std, e_star_kPa=e_star,
                                                 e_star_std_kPa=near.e_star_std_kPa * e_star / e_hi, notes=notes))

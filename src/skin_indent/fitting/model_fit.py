@@ -2,7 +2,7 @@
 
 :func:`fit_model` is the path of :func:`skin_indent.fitting.fit` with ``model=...``:
 the curve is prepared as the diagnosis prepares it (every segment, at most
-:data:`MAX_POINTS` points), its noise is the diagnosis's (:func:`curve_noise`), and the
+:data:`MAX_POINTS` points), its noise is the diagnosis's (:func:`~.error_model.curve_noise`), and the
 model is fitted by the same multistart fitter (:class:`~skin_indent.fitting.multistart.Fitter`:
 response surfaces where they cover the model, finite elements in the loop where they do
 not), so a model fitted here and the same model on a diagnosis's ladder are one fit with
@@ -19,14 +19,15 @@ import math
 import numpy as np
 
 from ..effects import CONTACT_POINT, WEIGHED, effect, instances
-from ..inverse import IdentificationResult
 from ..measurement import SEGMENTS, CurveSet, PreparedCurve, prepare
 from ..measurement.scale import Name, Quantity, UnitText
 from .curve import CurveFit, quality, with_scale_flags
+from .error_model import curve_noise, per_curve, sample_noise  # noqa: F401 - read from here by the diagnosis
 from .identification import hertz_modulus, run_method
 from .knowledge import DETERMINED_BY
 from .multistart import Fitter
-from .rung import evidence, reported_correlations
+from .result import ScoredResult
+from .rung import reported_correlations
 from .sample_fit import sample_fit_of
 from .scale_checks import MISFIT_FLAG
 from .surfaces import interpolation_flags
@@ -83,15 +84,6 @@ def is_several(data) -> bool:
     return isinstance(data, (list, tuple, CurveSet))
 
 
-def per_curve(value, n: int, what: str) -> list:
-    """``value`` for each of ``n`` curves: one value for all, or a sequence of ``n`` (one line otherwise)."""
-    if isinstance(value, (list, tuple, np.ndarray)):
-        if len(value) != n:
-            raise ValueError(f"{what}: {len(value)} values for {n} curves (give one, or one per curve)")
-        return list(value)
-    return [value] * n
-
-
 def prepare_sample(data, *, radius_mm=None, segments=SEGMENTS) -> list[PreparedCurve]:
     """Several recorded curves of one sample prepared as :func:`prepare_curve` prepares one, each with
     its own sphere radius (``radius_mm``: one for all, one per curve, or None: each curve's own)."""
@@ -100,26 +92,6 @@ def prepare_sample(data, *, radius_mm=None, segments=SEGMENTS) -> list[PreparedC
         raise ValueError("several curves of one sample: give at least two")
     radii = per_curve(radius_mm, len(curves), "radius_mm")
     return [prepare_curve(c, radius_mm=r, segments=segments) for c, r in zip(curves, radii)]
-
-
-def sample_noise(curves, noise_mN=None) -> tuple[list, list]:
-    """Each curve's noise level (mN) and where it comes from (:func:`curve_noise`); ``noise_mN`` one for
-    all curves, one per curve, or None (each estimated from its own data)."""
-    out = [curve_noise(c, s) for c, s in zip(curves, per_curve(noise_mN, len(curves), "noise_mN"))]
-    return [s for s, _ in out], [w for _, w in out]
-
-
-def curve_noise(data: PreparedCurve, noise_mN: float | None = None) -> tuple[float, str]:
-    """The noise level of a prepared curve (mN) and where it comes from: given (per raw sample,
-    divided by sqrt of the bin size), or estimated from the data (local cubic prediction)."""
-    if noise_mN is None:
-        source = "estimated from the data (local cubic prediction)"
-        if data.binned > 1:
-            source += f" after averaging bins of {data.binned} samples"
-        return data.high_frequency_noise_mN(), source
-    if not (math.isfinite(noise_mN) and noise_mN > 0):
-        raise ValueError(f"noise must be a positive number of mN, got {noise_mN}")
-    return float(noise_mN) / math.sqrt(data.binned), "given"
 
 
 def _hertz(prepared: PreparedCurve) -> dict:
@@ -175,7 +147,7 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     CurveFit or SampleFit
         A :class:`~skin_indent.fitting.sample_fit.SampleFit` for several curves. ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
         model error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
-        ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.rung.evidence`);
+        ``bic`` the rung's (:data:`~skin_indent.fitting.error_model.BIC_FORMULA`, at its own ``n_eff``);
         ``flags`` with the scale checks' (:func:`~skin_indent.fitting.scale_checks.scale_flags`).
 
     Raises
@@ -221,7 +193,7 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     treatment, Hertz's fit of the same loading points, the quality and the flags (with the scale
     checks', :func:`~skin_indent.fitting.scale_checks.scale_flags`)."""
     prepared = fitter.data
-    n, k = prepared.n, rung.n_free
+    k = rung.n_free
     p = rung.parameters
     contact = p.get(CONTACT_POINT.parameters[0].name, prepared.contact_guess_mm)
     contact_sd = rung.std.get(CONTACT_POINT.parameters[0].name)
@@ -255,9 +227,7 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
                               sd=Quantity(s["prior_sd"], name), post=Quantity(s["posterior"], name),
                               post_sd=Quantity(s["posterior_sd"], name), narrowed=s["narrowed"],
                               by=DETERMINED_BY[s["determined_by"]]))
-    aic, bic = evidence(rung.chi2_weighted, k, n)
-    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
-    base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
+    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
     result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                       e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,

@@ -18,17 +18,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..inverse import IdentificationResult
 from ..measurement.scale import display_units
 from ..runtime.json_io import jsonable
 from .knowledge import DETERMINED_BY
-from .rung import evidence, reported_correlations
+from .result import ScoredResult
+from .rung import reported_correlations
 from .surfaces import interpolation_flags
 from .scale_checks import MISFIT_FLAG, contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
 
 
 @dataclass(frozen=True, eq=False)
-class SampleFit(IdentificationResult):
+class SampleFit(ScoredResult):
     """A model fitted to several curves of one sample.
 
     Attributes
@@ -154,10 +154,7 @@ def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
     for name, s in rung.priors.items():
         notes.append(f"{name}: prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g}, posterior {s['posterior']:.4g} "
                      f"+- {s['posterior_sd']:.2g} (sd x {s['narrowed']:.2f}: {DETERMINED_BY[s['determined_by']]})")
-    n, k = fitter.data.n, rung.n_free
-    aic, bic = evidence(rung.chi2_weighted, k, n)
-    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
-    base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
+    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
     return SampleFit(**base, model=rung.model, curves=curves, prepared=list(fitter.curves), prediction_mN=predictions,
                      flags=tuple(dict.fromkeys(flags)), notes=notes, priors=dict(rung.priors),
                      error_model=fitter.error_model(), correlations=reported_correlations(rung))
