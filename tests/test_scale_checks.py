@@ -93,15 +93,16 @@ def test_a_radius_that_makes_the_contact_wider_than_the_sphere_is_refused(contex
 
 
 def test_five_points_are_flagged_and_two_refused(context):
-    five = fit(_forearm(every=15, rows=6), context=context, mesh="coarse")  # rows 0 (h = 0), then 5 in contact
-    assert five.n_points == 5 and five.n_free == 2
+    # rows 0 (h = 0), then 5 in contact: too few to estimate the noise from, given
+    five = fit(_forearm(every=15, rows=6), noise_mN=0.05, context=context, mesh="coarse")
+    assert five.n_points == 6 and five.n_free == 2  # every point fitted, the one at h = 0 too
     few = [f for f in five.flags if "points in contact" in f]
     assert len(few) == 1 and few[0].startswith("5 points in contact for 2 fitted parameters")
     assert "decimated export" in few[0]
-    with pytest.raises(MeasurementError, match=r"3 point\(s\) in contact for 2 fitted parameter\(s\), at least 4"):
+    with pytest.raises(MeasurementError, match=r"3 point\(s\) in contact for 2 fitted parameter\(s\) of neo-hooke, at least 4"):
         fit(_forearm(every=15, rows=4), context=context, mesh="coarse")
     # holding nu leaves one parameter: 3 points are enough to fit, and still too few to trust
-    three = fit(_forearm(every=15, rows=4), fixed={"nu": 0.45}, context=context, mesh="coarse")
+    three = fit(_forearm(every=15, rows=4), fixed={"nu": 0.45}, noise_mN=0.05, context=context, mesh="coarse")
     assert any(f.startswith("3 points in contact for 1 fitted parameters") for f in three.flags)
     assert (min_points(1), min_points(2), soft_min_points(2), soft_min_points(3)) == (3, 4, 10, 15)
 
@@ -115,7 +116,7 @@ def test_too_few_points_on_the_command_line_is_one_line_exit_2(cli, tmp_path):
 
 def test_a_parameter_whose_sd_exceeds_its_value_is_flagged(context):
     """E and nu of the first 5 points (h/R < 0.02): E's sd exceeds E; the whole curve determines it."""
-    r = fit(_forearm(every=4, rows=6), context=context, mesh="coarse")
+    r = fit(_forearm(every=4, rows=6), noise_mN=0.05, context=context, mesh="coarse")
     assert r.std["E_kPa"] > r.parameters["E_kPa"]
     flags = [f for f in r.flags if "is not determined by this curve" in f]
     assert flags[0].startswith(f"E_kPa is not determined by this curve (sd {r.std['E_kPa']:.3g} > value ")
@@ -184,10 +185,10 @@ def test_the_notes_of_an_afm_fit_read_in_its_units_and_its_json_in_the_package_u
     Pa = [float(v) for v in re.findall(r"\(?([-+\d.e]+) Pa", shown)]
     assert Pa == pytest.approx([1e3 * v for v in kPa], rel=1e-4) and "kPa" not in text
     assert limit.to_dict()["notes"] == [str(n) for n in limit.notes]
-    held = fit(load_csv(JPK), fixed={"nu": 0.45}, context=context, mesh="coarse")
+    held = fit(load_csv(JPK), fixed={"nu": 0.45}, context=context, mesh="coarse")  # the neo-Hookean fit, nu held
     E = held.parameters["E_kPa"]
-    assert f"nu fixed at 0.45; E = {E:.5g} kPa" in held.notes
-    assert f"note: nu fixed at 0.45; E = {E * 1e3:.5g} Pa" in held.report()
+    assert "nu held at 0.45" in held.notes and "note: nu held at 0.45" in held.report()
+    assert f"E_Pa      = {E * 1e3:.5g} +/- " in held.report() and " kPa" not in held.report()
     code, out, err = cli("fit", JPK, "--model", "neo-hooke", "--fix", "offset_mm=0.0268", "--prior",
                          "E_kPa=0.13:0.05", "--mesh", "coarse")
     assert code in (0, 3) and "note: offset_um held at 26.8" in out and "contact point: 26.8 um (held)" in out

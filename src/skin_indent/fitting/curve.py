@@ -378,30 +378,41 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         if options:
             raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (not taken with the paper's "
                             "identification)")
-    # the AFM field's convention: nu = 0.5 held at AFM scale (one curve, the half-space)
-    by_default = (not effects and not several and "nu" not in fixed and "nu" not in free
-                  and afm_scale(_radius_of(data, radius_mm)))
-    if by_default:
+    by_default = "nu" not in fixed and "nu" not in free and not effects and not several and not priors \
+        and afm_scale(_radius_of(data, radius_mm))
+    if by_default:  # the AFM field's convention: nu = 0.5 held at AFM scale (one curve, the half-space)
         fixed["nu"] = 0.5
-    if paper:
-        one = dict(surface=surface, method=method, window=window, contact=contact, radius_mm=radius_mm, x0=x0, tol=tol,
-                   noise_mN=noise_mN, context=context, mesh=mesh or "medium")
-        at = lambda nu: _fit_half_space(data, fixed={**fixed, "nu": nu}, **one)  # noqa: E731
-        if fixed.get("nu") != 0.5:
-            return with_scale_flags(_fit_half_space(data, fixed=fixed, **one))
-    else:
-        kwargs = dict(priors=priors, noise_mN=noise_mN, radius_mm=radius_mm, context=context, mesh=mesh or "coarse",
-                      **options)
-        at = lambda nu: fit_model(data, effects, fixed={**fixed, "nu": nu}, **kwargs)  # noqa: E731
-        if fixed.get("nu") != 0.5:
-            return fit_model(data, effects, fixed=fixed or None, **kwargs)
-        if effects or several:
+    if fixed.get("nu") == 0.5:
+        if effects or several or priors:
             raise ValueError(f"nu = 0.5 (the incompressible limit) is taken for the half-space fitted to one curve; "
-                             f"hold nu={NEARLY_INCOMPRESSIBLE_NU} for {model_name_of(effects, several)}")
-    result = _incompressible(at)
+                             f"hold nu={NEARLY_INCOMPRESSIBLE_NU} for {model_name_of(effects, several)}"
+                             + (" with priors" if priors else ""))
+        # the limit is extrapolated from nu = 0.49 and 0.499: the paper's identification on the loading
+        # segment, whose surfaces reach 0.499 (the diagnosis's stop at 0.49)
+        paper = True
+        if options:
+            raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (not taken with nu = 0.5, "
+                            "the paper's identification)")
+    if not paper:
+        return fit_model(data, effects, fixed=fixed or None, priors=priors, noise_mN=noise_mN, radius_mm=radius_mm,
+                         context=context, mesh=mesh or "coarse", **options)
+    one = dict(surface=surface, method=method, window=window, contact=contact, radius_mm=radius_mm, x0=x0, tol=tol,
+               noise_mN=noise_mN, context=context, mesh=mesh or "medium")
+    if fixed.get("nu") != 0.5:
+        return with_scale_flags(_fit_half_space(data, fixed=fixed, **one))
+    result = _incompressible(lambda nu: _fit_half_space(data, fixed={**fixed, "nu": nu}, **one))
     if by_default:
         result = dataclasses.replace(result, notes=[*result.notes, NU_DEFAULT_NOTE])
     return result
+
+
+def paper_needed(data, *, fixed=None, free=(), radius_mm=None, model=None, priors=None) -> bool:
+    """:func:`fit` of one curve with these settings holds nu = 0.5 (given, or the AFM scale's default),
+    which the paper's identification takes (:func:`incompressible_limit`)."""
+    fixed = fixed or {}
+    if model not in (None, "neo-hooke") or priors or "nu" in tuple(free or ()):
+        return False
+    return fixed.get("nu") == 0.5 or ("nu" not in fixed and afm_scale(_radius_of(data, radius_mm)))
 
 
 def model_name_of(effects, several: bool) -> str:

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..effects import CONTACT_POINT, WEIGHED, effect, instances
-from ..measurement import SEGMENTS, CurveSet, PreparedCurve, prepare
+from ..measurement import SEGMENTS, CurveSet, MeasurementError, PreparedCurve, prepare
 from ..measurement.scale import Name, Quantity, UnitText
 from .curve import CurveFit, quality, with_scale_flags
 from .error_model import curve_noise, per_curve, sample_noise  # noqa: F401 - read from here by the diagnosis
@@ -167,16 +167,21 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     context = context_of(context)
     if is_several(data):
         curves = prepare_sample(data, radius_mm=radius_mm, segments=segments)
-        sigmas, sources = sample_noise(curves, noise_mN)
     else:
         curves = [prepare_curve(data, radius_mm=radius_mm, segments=segments)]
-        sigma, source = curve_noise(curves[0], noise_mN)
-        sigmas, sources = [sigma], [source]
+    try:
+        sigmas, sources = sample_noise(curves, noise_mN)
+        no_noise = None
+    except MeasurementError as err:  # too few points to estimate it: said after the count of points, which comes first
+        sigmas, sources, no_noise = [math.nan] * len(curves), [""] * len(curves), err
     fitter = Fitter(curves, sigmas, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
+    fitter.check_points_before_building(effects)  # a curve too short for the model builds nothing
     target = fitter.model(effects)
     fitter.check_names(target)
     fitter.check_points(target)
+    if no_noise is not None:
+        raise no_noise
     for i in range(len(effects)):  # the rungs below, as a diagnosis climbs to it: the same warm starts
         try:
             fitter.fit(effects[:i])

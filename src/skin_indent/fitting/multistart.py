@@ -443,7 +443,10 @@ class Fitter:
                      for k in self.priors if k in params}
         r = best.residuals_mN
         s = self.sigma(pred)
-        analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
+        try:
+            analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
+        except ValueError:  # too few points to test the residual (a fit of 4 points, nu held): not judged white
+            analysis = None
         curve_rms, curve_white = self._per_curve(r, s, best.n_free)
         base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
         chi2 = float(np.sum((r / s) ** 2))
@@ -451,7 +454,7 @@ class Fitter:
                     **scored(chi2, r * (self.noise_mN / s), best.n_free))
         rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
-                    chi2_weighted=chi2, white=analysis.white, analysis=analysis,
+                    chi2_weighted=chi2, white=bool(analysis is not None and analysis.white), analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
                     curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)),

@@ -8,6 +8,7 @@ own residual's ``n_eff``; a diagnosis compares its models at one ``n_eff``, that
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -31,6 +32,11 @@ class ScoredResult(IdentificationResult):
     def criteria(self) -> dict:
         return {"aic": self.aic, "bic": self.bic, "n_eff": self.n_eff, "bic_formula": self.BIC_FORMULA,
                 "aic_ml": self.aic_ml, "bic_ml": self.bic_ml, "bic_ml_formula": self.BIC_ML_FORMULA}
+
+    def at(self, n_eff: float) -> "ScoredResult":
+        """This result scored at another effective sample size (a diagnosis's, to compare it with its models)."""
+        aic, bic = score(self.chi2, self.n_free, self.n_points, n_eff)
+        return dataclasses.replace(self, aic=aic, bic=bic, n_eff=float(n_eff))
 
     def criteria_line(self, digits: int = 5) -> str:
         return (f"    AIC        = {self.aic:.{digits}g}, BIC = {self.bic:.{digits}g} (against the error model, "
