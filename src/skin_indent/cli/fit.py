@@ -257,9 +257,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     from ..fitting.curve import paper_identification, paper_needed
 
     paper = paper_identification(args.method, window=window, contact=args.contact, surface=surface, x0=x0,
-                                 tol=args.tol) or paper_needed(measurement, fixed=fixed, free=args.free,
-                                                               radius_mm=args.radius, model=args.model,
-                                                               priors=args.priors)
+                                 tol=args.tol) or paper_needed(measurement, fixed=fixed, radius_mm=args.radius,
+                                                               model=args.model, priors=args.priors)
     if not paper:
         from ..fitting.model_fit import prepare_curve
 
@@ -293,8 +292,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
             except ValueError:
                 raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for "
                                f"{prepared.radius_mm:g} mm") from None
-    result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
-                 context=context, mesh=args.mesh, free=args.free)
+    result = fit(prepared, surface, args.method, window=window, contact=args.contact, fixed=fixed, x0=x0, tol=args.tol,
+                 noise_mN=args.noise, context=context, mesh=args.mesh, free=args.free)
     settings = _fit_settings(args, fixed, window)
     code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
     if result.success:  # a failed fit leaves no profile

@@ -378,21 +378,17 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         if options:
             raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (not taken with the paper's "
                             "identification)")
-    by_default = "nu" not in fixed and "nu" not in free and not effects and not several and not priors \
-        and afm_scale(_radius_of(data, radius_mm))
+    if fixed.get("nu") == 0.5 and (effects or several or priors):
+        raise ValueError(f"nu = 0.5 (the incompressible limit) is taken for the half-space fitted to one curve; "
+                         f"hold nu = 0.49 for {model_name_of(effects, several)}" + (" with priors" if priors else ""))
+    if not several and paper_needed(data, fixed=fixed, radius_mm=radius_mm, model=model, priors=priors):
+        paper = True  # AFM scale, or nu held at 0.499 or 0.5: the paper's identification (paper_needed)
+        if options:
+            raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (not taken with the "
+                            "paper's identification)")
+    by_default = paper and "nu" not in fixed and "nu" not in free and afm_scale(_radius_of(data, radius_mm))
     if by_default:  # the AFM field's convention: nu = 0.5 held at AFM scale (one curve, the half-space)
         fixed["nu"] = 0.5
-    if fixed.get("nu") == 0.5:
-        if effects or several or priors:
-            raise ValueError(f"nu = 0.5 (the incompressible limit) is taken for the half-space fitted to one curve; "
-                             f"hold nu={NEARLY_INCOMPRESSIBLE_NU} for {model_name_of(effects, several)}"
-                             + (" with priors" if priors else ""))
-        # the limit is extrapolated from nu = 0.49 and 0.499: the paper's identification on the loading
-        # segment, whose surfaces reach 0.499 (the diagnosis's stop at 0.49)
-        paper = True
-        if options:
-            raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (not taken with nu = 0.5, "
-                            "the paper's identification)")
     if not paper:
         return fit_model(data, effects, fixed=fixed or None, priors=priors, noise_mN=noise_mN, radius_mm=radius_mm,
                          context=context, mesh=mesh or "coarse", **options)
@@ -406,13 +402,16 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     return result
 
 
-def paper_needed(data, *, fixed=None, free=(), radius_mm=None, model=None, priors=None) -> bool:
-    """:func:`fit` of one curve with these settings holds nu = 0.5 (given, or the AFM scale's default),
-    which the paper's identification takes (:func:`incompressible_limit`)."""
-    fixed = fixed or {}
-    if model not in (None, "neo-hooke") or priors or "nu" in tuple(free or ()):
+def paper_needed(data, *, fixed=None, radius_mm=None, model=None, priors=None) -> bool:
+    """:func:`fit` of one curve with these settings is the paper's identification without being asked:
+    the half-space (no model, or ``"neo-hooke"``) and no prior, and an AFM-scale sphere (the field's fit of the approach segment,
+    nu = 0.5 held by default) or nu held at 0.499 or 0.5 (the incompressible limit,
+    :func:`incompressible_limit`: surfaces that reach nu = 0.499, the diagnosis's stop at 0.49)."""
+    from .model_fit import parse_model
+
+    if parse_model("neo-hooke" if model is None else model) or priors:
         return False
-    return fixed.get("nu") == 0.5 or ("nu" not in fixed and afm_scale(_radius_of(data, radius_mm)))
+    return (fixed or {}).get("nu", 0.0) >= NEARLY_INCOMPRESSIBLE_NU or afm_scale(_radius_of(data, radius_mm))
 
 
 def model_name_of(effects, several: bool) -> str:

@@ -22,7 +22,7 @@ from ..effects import CONTACT_POINT, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, CurveSet, MeasurementError, PreparedCurve, prepare
 from ..measurement.scale import Name, Quantity, UnitText
 from .curve import CurveFit, quality, with_scale_flags
-from .error_model import curve_noise, per_curve, sample_noise  # noqa: F401 - read from here by the diagnosis
+from .error_model import NOISE_POINTS, curve_noise, per_curve, sample_noise  # noqa: F401 - the diagnosis reads them here
 from .identification import hertz_modulus, run_method
 from .knowledge import DETERMINED_BY
 from .multistart import Fitter
@@ -36,7 +36,7 @@ from ..runtime.context import context_of
 from ..runtime.provenance import surface_identity
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
-MAX_POINTS = 400
+MAX_POINTS = NOISE_POINTS  # the noise rule estimates on at most as many (error_model)
 #: the base law every model starts from
 BASE_MODEL = "neo-hooke"
 
@@ -179,6 +179,7 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     fitter.check_points_before_building(effects)  # a curve too short for the model builds nothing
     target = fitter.model(effects)
     fitter.check_names(target)
+    _check_held(fitter, target)
     fitter.check_points(target)
     if no_noise is not None:
         raise no_noise
@@ -191,6 +192,17 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     if len(curves) > 1:
         return sample_fit_of(rung, fitter, noise_sources=sources)
     return curve_fit_of(rung, fitter, noise_source=sources[0])
+
+
+def _check_held(fitter: Fitter, model) -> None:
+    """One line for a value held outside what the model covers (its fit coordinates' ranges)."""
+    lo, hi = model.bounds
+    for name, v in fitter.held(model).items():
+        i = model.parameter_names.index(name)
+        if not lo[i] * (1 - 1e-9) <= v <= hi[i] * (1 + 1e-9):
+            raise ValueError(f"{name} = {v:g} is held outside what {model.name} covers ({lo[i]:g} to {hi[i]:g})"
+                             + ("; nu = 0.499 or 0.5 (the incompressible limit) are taken by the half-space, "
+                                "the paper's identification" if name == "nu" else ""))
 
 
 def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
