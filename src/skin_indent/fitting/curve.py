@@ -17,7 +17,7 @@ import numpy as np
 
 from ..inverse import IdentificationResult
 from .error_model import curve_noise, described
-from .result import ScoredResult, scored
+from .result import FitResult, scored
 from ..runtime.provenance import records_call, surface_identity
 from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, check_fixed, check_modulus_range, hertz_modulus,
                              run_method, start_values)
@@ -39,7 +39,7 @@ MISFIT_FLOOR = 0.5
 
 
 @dataclass(frozen=True, eq=False)
-class CurveFit(ScoredResult):
+class CurveFit(FitResult):
     """A fitted recorded curve: the identification (all of :class:`IdentificationResult`) plus
     what was done to the data, Hertz's fit of the same points, and the fit's quality.
 
@@ -59,25 +59,13 @@ class CurveFit(ScoredResult):
     quality : dict
         ``noise_mN`` independent of the model and its ``noise_source``, ``misfit``
         (RMS / noise), ``white`` (residual whiteness as in diagnosis), ``verdict``.
-    flags : tuple of str
-        Why the numbers may not be trusted (a parameter at a bound, misfit far above the
-        noise); empty when there is no such reason.
-    notes : list of str
     surface : dict or list of dict
         Identity of the response surface used (``hash``, ``settings``); of a chosen model's fit
         (``model=...``), a list: every elastic force model its fits used (the model's and those of
         the rungs below it, which give its starts; :func:`~skin_indent.runtime.provenance.surface_identity`).
-    model : str
-        The model fitted: ``neo-hooke`` plus ``+effect`` for each effect.
-    priors : dict
-        Per parameter given a prior: prior, posterior, how much the data narrowed it
-        (:func:`~skin_indent.fitting.knowledge.prior_summary`).
-    error_model : dict
-        How the chi-square and BIC weigh each point (:func:`~skin_indent.fitting.error_model.described`:
-        noise and model error in quadrature; the paper's identification, the noise alone, ``model_error`` 0).
-    provenance : dict
-        How the fit was made (:func:`skin_indent.runtime.provenance.provenance`): by
-        :func:`fit`, its ``api`` call, the arguments given and the curve's data digest.
+
+    The model, the curve's summary (``curves``, one), flags, notes, priors, error model, provenance and
+    correlations are those of every fit (:class:`~skin_indent.fitting.result.FitResult`).
     """
 
     prepared: object = None
@@ -88,25 +76,7 @@ class CurveFit(ScoredResult):
     e_star_std_kPa: float = math.nan
     hertz: dict = field(default_factory=dict)
     quality: dict = field(default_factory=dict)
-    flags: tuple = ()
-    notes: list = field(default_factory=list)
     surface: dict | list = field(default_factory=dict)
-    model: str = "neo-hooke"
-    priors: dict = field(default_factory=dict)
-    error_model: dict = field(default_factory=dict)
-    provenance: dict = field(default_factory=dict, repr=False)
-    #: ``((name, name, r), ...)`` under the names ``parameters`` uses (a chosen model's fit:
-    #: :func:`~skin_indent.fitting.rung.reported_correlations`); None: the fit's own coordinates
-    correlations: tuple | None = None
-
-    def correlation_pairs(self) -> list:
-        """The correlations :meth:`report` lists, under the names ``parameters`` uses."""
-        return super().correlation_pairs() if self.correlations is None else list(self.correlations)
-
-    @property
-    def trusted(self) -> bool:
-        """Converged and no flag."""
-        return self.success and not self.flags
 
     @property
     def max_depth_ratio(self) -> float:
@@ -146,15 +116,7 @@ class CurveFit(ScoredResult):
             "hertz": dict(self.hertz),
             "fe_vs_hertz_percent": self.fe_vs_hertz_percent,
             "quality": dict(self.quality),
-            "flags": list(self.flags),
-            "notes": list(self.notes),
             "surface": self.surface,
-            "model": self.model,
-            "priors": dict(self.priors),
-            "error_model": dict(self.error_model),
-            "provenance": dict(self.provenance),
-            # the correlations under the names ``parameters`` uses (``covariance`` is in the fit's coordinates)
-            "correlations": [{"a": a, "b": b, "r": r} for a, b, r in self.correlation_pairs()],
         })
         return jsonable(out)
 
@@ -538,7 +500,13 @@ def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm,
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its modulus is not to be trusted")
     base = {f.name: getattr(result, f.name) for f in dataclasses.fields(IdentificationResult)}
-    return CurveFit(**base, **score, prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
+    summary = {"data": prepared.source, "n_points": prepared.n, "radius_mm": float(radius),
+               "radius_source": prepared.radius_source, "noise_mN": q.get("noise_mN"),
+               "noise_source": q.get("noise_source"), "rms_mN": result.rms_mN, "misfit": q.get("misfit"),
+               "white": q.get("white"), "contact_mode": mode, "contact_point_mm": float(contact),
+               "contact_point_std_mm": None if contact_sd is None else float(contact_sd),
+               "baseline_mN": prepared.baseline_mN}
+    return CurveFit(**base, **score, curves=[summary], prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
                     contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                     e_star_std_kPa=e_star_sd, hertz=hertz, quality=q, flags=tuple(flags), notes=notes,
                     surface=surface_identity(surface) or {},

@@ -20,13 +20,11 @@ import numpy as np
 
 from ..effects import CONTACT_POINT, WEIGHED, effect, instances
 from ..measurement import SEGMENTS, CurveSet, MeasurementError, PreparedCurve, prepare
-from ..measurement.scale import Name, Quantity, UnitText
 from .curve import CurveFit, quality, with_scale_flags
 from .error_model import NOISE_POINTS, curve_noise, per_curve, sample_noise  # noqa: F401 - the diagnosis reads them here
 from .identification import hertz_modulus, run_method
-from .knowledge import DETERMINED_BY
 from .multistart import Fitter
-from .result import ScoredResult
+from .result import ScoredResult, curve_summaries, knowledge_of
 from .rung import reported_correlations
 from .sample_fit import sample_fit_of
 from .scale_checks import MISFIT_FLAG
@@ -230,25 +228,16 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     if q and q["misfit"] > MISFIT_FLAG:
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its parameters are not to be trusted")
-    for name, s in rung.priors.items():
-        if s["in_tension"]:
-            flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
-                         f"({s['tension_sd']:.1f} combined sd apart)")
+    known_flags, known_notes = knowledge_of(rung, fitter)
+    flags += known_flags
     flags += interpolation_flags(rung.bound_model, rung.x)
-    notes = list(prepared.notes)
-    notes += [UnitText("{name} held at {value:g}", name=Name(name), value=Quantity(v, name))
-              for name, v in fitter.fixed.items() if name in p]
-    for name, s in rung.priors.items():
-        notes.append(UnitText("{name}: prior {mean:.4g} +- {sd:.2g}, posterior {post:.4g} +- {post_sd:.2g} (sd x "
-                              "{narrowed:.2f}: {by})", name=Name(name), mean=Quantity(s["prior_mean"], name),
-                              sd=Quantity(s["prior_sd"], name), post=Quantity(s["posterior"], name),
-                              post_sd=Quantity(s["posterior_sd"], name), narrowed=s["narrowed"],
-                              by=DETERMINED_BY[s["determined_by"]]))
+    notes = list(prepared.notes) + known_notes
     base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
     result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                       e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
                       flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
+                      curves=curve_summaries(rung, fitter, [noise_source]),
                       priors=dict(rung.priors), error_model=fitter.error_model(),
                       correlations=reported_correlations(rung))
     ended = tuple(n for e in rung.ended for n in e.parameters)  # by the names results report (ratio)
