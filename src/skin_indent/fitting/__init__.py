@@ -3,8 +3,11 @@
 - :mod:`.surfaces`: which response surface serves a curve (cached or built);
 - :mod:`.identification`: the paper's identification step on a surface (Hertz start, checks,
   the methods by name);
-- :mod:`.curve`: :func:`fit`, the user's path from a recorded curve (baseline, contact
-  point, Hertz comparison, fit quality) to a :class:`CurveFit`;
+- :mod:`.curve`: :func:`fit`, the one fit of a recorded curve (or several of one sample): the
+  model's fit by the multistart fitter (``fit(m)`` is ``fit(m, model="neo-hooke")``), the paper's
+  identification an option of it, to a :class:`CurveFit`;
+- :mod:`.error_model`: the one noise rule, the model-error term, each point's sigma, the score;
+- :mod:`.result`: what every fit's result reports (:class:`~.result.FitResult`), its score;
 - :mod:`.hertz`: :func:`fit_hertz`, Hertz fitted as AFM tools (nanite) fit it.
 - :mod:`.multistart`: the multistart fitter of any model (each set of effects fitted once);
 - :mod:`.starts`: where its fits start (start vectors) and, in the loop, the screen that ranks them;
