@@ -452,12 +452,14 @@ class Fitter:
         chi2 = float(np.sum((r / s) ** 2))
         base.update(parameters=params, std=std, chi2=chi2, message=reported_message(best, model, x),
                     **scored(chi2, r * (self.noise_mN / s), best.n_free))
+        ended = tuple(how_it_ended(best, model, x))
         rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=chi2, white=bool(analysis is not None and analysis.white), analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
-                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)),
+                    curve_white=curve_white, ended=ended, flags=tuple(e.text for e in ended),
+                    error_model=self.error_model(),
                     reported_cov=reported_covariance(model, x, cov))
         self.fits[key] = rung
         return rung

@@ -16,25 +16,24 @@ from ..inverse.residuals import describe_structure
 from ..measurement.scale import Quantity, Unit, UnitText, joined
 from ..runtime.json_io import jsonable
 from .error_model import MODEL_ERROR, score as evidence  # noqa: F401 - their names here before error_model
-from .result import ScoredResult
+from .result import FitResult
 #: the structure sentence of a residual in which no range departs from the model
 NO_STRUCTURE = "no range departs from the model beyond the noise"
 
 
 @dataclass(frozen=True, eq=False)
-class Rung(ScoredResult):
+class Rung(FitResult):
     """One fitted model of a diagnosis (a rung of the ladder or a candidate).
 
-    Everything of :class:`~skin_indent.inverse.IdentificationResult` (the least-squares
-    fit; ``covariance`` and ``free_names`` in the fit coordinates ``fit_parameters``),
-    with ``parameters`` and ``std`` as users read them (``ratio``, ``C20_kPa``...), and
-    and its score ``bic`` (:attr:`BIC_FORMULA`: at its own ``n_eff`` when fitted, at the diagnosis's
-    common ``n_eff`` in a diagnosis).
+    A :class:`~skin_indent.fitting.result.FitResult` (the result of every fit: ``model``, ``flags``,
+    ``priors``, the score ``bic``, :attr:`BIC_FORMULA`, at its own ``n_eff`` when fitted, at the
+    diagnosis's common ``n_eff`` in a diagnosis; ``covariance`` and ``free_names`` in the fit
+    coordinates ``fit_parameters``, ``parameters`` and ``std`` as users read them: ``ratio``,
+    ``C20_kPa``...), with what the diagnosis reads of it. Its ``flags`` say how the fit ended where
+    that is not a result (:attr:`ended`): what every output shows.
 
     Attributes
     ----------
-    model : str
-        ``neo-hooke`` plus ``+effect`` for each effect.
     effects : tuple of str
     fit_parameters : dict
         The fitted coordinates (``compliance``, ``C20_over_E``...).
@@ -53,9 +52,6 @@ class Rung(ScoredResult):
         Finite-element runs the fit made (the finite-element model in the loop; 0 on surfaces).
     at_bounds : tuple of str
         Fit parameters that ended on a face of their range.
-    priors : dict
-        Per parameter given a prior, :func:`~skin_indent.fitting.knowledge.prior_summary`: the prior, the
-        posterior, how much the data narrowed it and whether data and prior agree.
     curve_rms_mN : tuple of float
         The RMS residual of each curve (mN), in input order (one curve: ``(rms_mN,)``).
     curve_white : tuple of bool
@@ -72,7 +68,6 @@ class Rung(ScoredResult):
         stays with a rung whose model is left out.
     """
 
-    model: str = ""
     effects: tuple = ()
     fit_parameters: dict = field(default_factory=dict)
     prediction_mN: np.ndarray = None
@@ -84,16 +79,10 @@ class Rung(ScoredResult):
     x: np.ndarray = None
     forward_runs: int = 0
     at_bounds: tuple = ()
-    priors: dict = field(default_factory=dict)
     curve_rms_mN: tuple = ()
     curve_white: tuple = ()
     ended: tuple = ()
     reported_cov: tuple = ()
-
-    @property
-    def flags(self) -> tuple:
-        """How the fit ended, where that is not a result (:attr:`ended`): what every output shows."""
-        return tuple(e.text for e in self.ended)
 
     @property
     def moved(self) -> bool:
