@@ -254,7 +254,7 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     from ..fitting import fit
     from ..measurement import prepare
 
-    from ..fitting.curve import paper_identification, paper_needed
+    from ..fitting.one_fit import paper_identification, paper_needed
 
     paper = paper_identification(args.method, window=window, contact=args.contact, surface=surface, x0=x0,
                                  tol=args.tol) or paper_needed(measurement, fixed=fixed, radius_mm=args.radius,
