@@ -215,7 +215,10 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
     r = np.asarray(residual_mN, dtype=float)
     rms = float(np.sqrt(np.mean(r**2)))
     if white is None:
-        white = analyse_residuals(r, noise, n_free).white
+        try:
+            white = analyse_residuals(r, noise, n_free).white
+        except ValueError:  # too few points to test the residual (4 points, nu held): no evidence of structure
+            white = True
     misfit = rms / noise
     if misfit > MISFIT_LIMIT:
         verdict = "misfit far above the noise: the model does not describe this curve; try `skin-indent diagnose`"

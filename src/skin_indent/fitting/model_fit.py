@@ -222,7 +222,7 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     g = np.array([1 / (1 - nu**2), 2 * E * nu / (1 - nu**2) ** 2])
     C = np.array([[sd_E**2, rho * sd_E * sd_nu], [rho * sd_E * sd_nu, sd_nu**2]])
     var = float(g @ C @ g)
-    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=rung.white,
+    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=None if rung.analysis is None else rung.white,
                 ended=rung.ended)
     flags = list(rung.flags)  # how the fit ended (fitting.ended), as the ladder shows it
     if q and q["misfit"] > MISFIT_FLAG:
