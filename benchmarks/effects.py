@@ -57,7 +57,7 @@ from _bench import HERE, ROOT, write_results  # noqa: E402,F401  (makes skin_ind
 
 from skin_indent.effects import Model  # noqa: E402
 from skin_indent.mechanics.contact import ContactLaw  # noqa: E402
-from skin_indent.protocol import Protocol  # noqa: E402
+from skin_indent.mechanics.protocol import Protocol  # noqa: E402
 
 RADIUS_MM = 6.22
 DEPTH_MM = 0.6

@@ -63,7 +63,7 @@ from skin_indent.mechanics.layers import RIGID, Layer, LayeredSample  # noqa: E4
 from skin_indent.mechanics.linear import TangentSolver  # noqa: E402
 from skin_indent.mechanics.mesh import graded_mesh  # noqa: E402
 from skin_indent.mechanics.predictor import SurfaceFit  # noqa: E402
-from skin_indent.protocol import Protocol  # noqa: E402
+from skin_indent.mechanics.protocol import Protocol  # noqa: E402
 from skin_indent.simulate import simulate  # noqa: E402
 
 R = 6.22

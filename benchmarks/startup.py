@@ -60,7 +60,7 @@ def huge_csv(path: Path, rows: int | None = None) -> Path:
     with 0.02 mN noise), the size of ``tests/test_fuzz.py``'s huge file."""
     import numpy as np
 
-    from skin_indent.analytic import hertz_force
+    from skin_indent.mechanics.analytic import hertz_force
 
     rows = rows or HUGE_ROWS
     h = np.linspace(0.01, 0.6, rows)

@@ -41,7 +41,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from skin_indent.data import bundled_path
-from skin_indent.analytic import hertz_contact_radius, hertz_force, sneddon_sphere_force
+from skin_indent.mechanics.analytic import hertz_contact_radius, hertz_force, sneddon_sphere_force
 from skin_indent.mechanics import NeoHooke, SphericalIndenter
 from skin_indent.mechanics.fields import nodal_fields
 from skin_indent.simulate import simulate
@@ -108,7 +108,7 @@ print(f"largest von Mises stress {fields['von_mises'].max():.2f} kPa")
 # Hertz's solution treats the sphere as a paraboloid and the strains as small:
 # :math:`F = \frac{4}{3} \frac{E}{1-\nu^2} \sqrt{R}\, h^{3/2}`. Sneddon's solution
 # keeps the exact sphere, still in small strain. Both are in
-# :mod:`skin_indent.analytic`.
+# :mod:`skin_indent.mechanics.analytic`.
 E, nu, R = material.E_kPa, material.nu, sphere.radius_mm
 h = curve.depth_mm
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.6), layout="constrained")

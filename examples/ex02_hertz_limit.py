@@ -31,7 +31,7 @@ steps of a few 0.1 % to curves whose differences we want to see.
 import matplotlib.pyplot as plt
 import numpy as np
 
-from skin_indent.analytic import hertz_force, sneddon_sphere_force
+from skin_indent.mechanics.analytic import hertz_force, sneddon_sphere_force
 from skin_indent.mechanics import LinearElastic, NeoHooke, SphericalIndenter
 from skin_indent.simulate import simulate
 

@@ -143,7 +143,7 @@ def test_written_files_are_readable_by_others(tmp_path):
 def test_nu_one_half_is_the_incompressible_limit_checked_against_hertz_and_0499(context):
     """At small depth the limit is Hertz's incompressible sphere; deeper it stays within a
     fraction of a percent of the compressible law at nu = 0.499 (same E*)."""
-    from skin_indent.analytic import hertz_force
+    from skin_indent.mechanics.analytic import hertz_force
 
     R = 1.0
     d = np.linspace(0.0005, 0.01, 40)  # h/R <= 0.01: Hertz holds

@@ -153,7 +153,7 @@ def test_json_schema(hidden, run):
 # ------------------------------------------------------------------ our own hidden effects
 def _synthetic(model_effects, theta, *, sigma, seed, protocol=None, depth=0.6, points=100):
     from skin_indent.effects import Model
-    from skin_indent.protocol import Protocol
+    from skin_indent.mechanics.protocol import Protocol
 
     protocol = protocol or Protocol.ramp(depth, points, 0.02)
     curve = Model(tuple(model_effects)).simulate(theta, protocol=protocol, mesh="coarse")
@@ -166,7 +166,7 @@ def _synthetic(model_effects, theta, *, sigma, seed, protocol=None, depth=0.6, p
 def own_cases():
     import math as _m
 
-    from skin_indent.protocol import Protocol
+    from skin_indent.mechanics.protocol import Protocol
 
     hold = Protocol.ramp(0.6, 60, 0.05, hold_s=20.0, hold_points=40)
     return {
@@ -433,26 +433,26 @@ def test_the_standard_deviation_that_decides_is_the_one_reported(hidden, cache, 
     of the last rung everywhere (ladder, sentence, JSON, HTML), and reading the result makes no
     finite-element run."""
     from skin_indent.diagnosis import workflow
-    from skin_indent.diagnosis.identifiability import ALTERNATIVES, RECORDED, Prediction
+    from skin_indent.diagnosis.identifiability import Outlook
 
-    calls = []
+    calls, fits = [], []
 
-    def assess(fitter, rung, alternatives):  # the finite-element derivatives, made up: E at 3 times the fit's sd
-        calls.append(rung.model)
-        std = {k: (3 * v if k == "E_kPa" else v) for k, v in rung.std.items()}
-        return [Prediction(RECORDED, "this measurement", std)] + [Prediction(a, a.short, None, "skipped")
-                                                                  for a in ALTERNATIVES]
+    def weigh(rungs, current, curves, noises, **kwargs):  # the finite-element derivatives, made up: E at 3 times
+        calls.append(current.model)  # the fit's sd
+        fits.append(current.std["E_kPa"])
+        std = {k: (3 * v if k == "E_kPa" else v) for k, v in current.std.items()}
+        return Outlook([f.model for f in rungs], current.model, std, noises[0], [])
 
-    monkeypatch.setattr(workflow, "assess", assess)
+    monkeypatch.setattr(workflow, "weigh", weigh)
     # a layer on top of which only offset is a candidate: nothing is fitted with finite elements in the loop
     d = diagnose(hidden["v02_layer_soft_base"], add=("layer",), candidates=("offset",), cache_dir=cache,
                  mesh="coarse", workers=2)
     assert calls == ["neo-hooke+layer"], d.report()
-    fit = d.fitter.fit(("layer",)).std["E_kPa"]
+    fit = fits[0]
     assert d.current.std["E_kPa"] == pytest.approx(3 * fit, rel=1e-12) and d.std_source["E_kPa"] == workflow.FROM_FE
     assert "E_kPa" in d.undetermined() and f"+- {3 * fit:.2g}: not determined" in d.sentence()
     out = _assert_one_set_of_numbers(d, tmp_path)
     assert out["current"]["std_source"]["E_kPa"] == workflow.FROM_FE
     assert out["ranking"][0]["std_source"]["E_kPa"] == workflow.FROM_FIT  # layer+offset: its own fit's
-    monkeypatch.setattr(workflow, "assess", lambda *a, **k: pytest.fail("a finite-element run on reading"))
+    monkeypatch.setattr(workflow, "weigh", lambda *a, **k: pytest.fail("a finite-element run on reading"))
     d.report(), d.sentence(), d.to_dict(), d.undetermined()

@@ -117,8 +117,15 @@ def test_markup_in_a_file_name_or_a_setting_is_escaped(diag, tmp_path):
 
 
 # ------------------------------------------------------------------ the surfaces in the provenance
-def test_the_diagnosis_provenance_names_every_surface_its_fits_used(diag, tmp_path):
-    cores = diag.fitter.cores
+def test_the_diagnosis_provenance_names_every_surface_its_fits_used(gallery_cache, hidden, diagnosis_surfaces,
+                                                                    monkeypatch, tmp_path):
+    from skin_indent.diagnosis import workflow
+
+    made, real = [], workflow.Fitter  # the diagnosis' fits, caught as it makes them (a Diagnosis holds no Fitter)
+    monkeypatch.setattr(workflow, "Fitter", lambda *a, **k: made.append(real(*a, **k)) or made[-1])
+    diag = diagnose(hidden["v01_clean"], candidates=("offset", "stiffening"), max_rungs=0, in_loop=False,
+                    cache_dir=gallery_cache, mesh="coarse", workers=1, progress=False)
+    cores = made[0].cores
     assert {type(c).__name__ for c in cores} == {"ResponseSurface", "EffectSurface"}
     recorded = diag.to_dict()["provenance"]["surface"]
     assert recorded == surface_identity(cores) and len(recorded) == len(cores)

@@ -21,9 +21,8 @@ import skin_indent as si
 from skin_indent.cli import main
 from skin_indent.diagnosis import diagnose
 from skin_indent.diagnosis.evidence import sentence as separation_sentence
-from skin_indent.diagnosis.evidence import weighed_candidates
-from skin_indent.diagnosis.identifiability import ALTERNATIVES
-from skin_indent.diagnosis.measurements import Separation
+from skin_indent.diagnosis.identifiability import Assessment, Outlook, candidates, suggestion
+from skin_indent.diagnosis.measurements import Separation, base_history
 from skin_indent.measurement import load_csv
 from skin_indent.measurement.scale import (AFM_UNITS, PACKAGE_UNITS, SKIN_UNITS, Quantity, Unit, UnitText, joined,
                                           shown_in)
@@ -114,7 +113,7 @@ def test_the_separating_measurement_keeps_its_numbers_and_reads_in_nn(afm):
     um and nN, the same numbers."""
     rung = afm.current
     h = np.asarray(rung.bound_model.evaluate(rung.x).h_mm, dtype=float)
-    candidate = weighed_candidates(afm.data, h, (rung,))[0]  # a sphere of half the radius
+    candidate = candidates(base_history(afm.data, h))[0][1]  # a sphere of half the radius
     said = separation_sentence(candidate, Separation("a", "b", 2.5e-6, 40.0, 12.3, 200), "layer", "offset",
                                afm.noise_mN)
     assert isinstance(said, str) and "differ there by up to 2.5e-06 mN" in said and " mm)" in said
@@ -132,16 +131,18 @@ def test_the_separating_measurement_keeps_its_numbers_and_reads_in_nn(afm):
     assert out["suggested_measurement"] == str(said) and f"nearly as well: {said}." in out["sentence"]
 
 
-def test_a_measurement_that_would_determine_a_parameter_reads_in_the_units_shown():
-    from skin_indent.diagnosis.identifiability import Prediction, suggestion
-
-    larger = ALTERNATIVES[0]
-    p = Prediction(larger, larger.describe(0.01864, 0.003), {"E_kPa": 0.012, "offset_mm": 4e-5})
-    clause = suggestion("E_kPa", 0.2, [p])
-    assert clause == "; a sphere of twice the radius (0.0373 mm) to the same depth (0.003 mm) would determine it " \
-                     "to +- 0.012"
-    assert shown_in(clause, AFM_UNITS) == ("; a sphere of twice the radius (37.3 um) to the same depth (3 um) would "
-                                           "determine it to +- 12")
+def test_a_measurement_that_would_determine_a_parameter_reads_in_the_units_shown(afm):
+    rung = afm.current
+    base = base_history(afm.data, np.asarray(rung.bound_model.evaluate(rung.x).h_mm, dtype=float))
+    larger = candidates(base, radii=(2 * afm.data.radius_mm,))[0][1]  # twice the radius
+    outlook = Outlook([rung.model], rung.model, {"E_kPa": 0.3}, afm.noise_mN,
+                      [Assessment(larger, std={"E_kPa": 0.012, "offset_mm": 4e-5})])
+    clause = suggestion("E_kPa", 0.2, outlook)
+    h = Quantity(float(np.max(base.depth_mm)), "mm")
+    assert clause == f"; fitted with this curve, a sphere of twice the radius (R = 0.0373 mm) to the same depth " \
+                     f"({h.value:.3g} mm) would determine it to +- 0.012"
+    assert shown_in(clause, AFM_UNITS) == ("; fitted with this curve, a sphere of twice the radius (R = 37.3 um) to "
+                                           f"the same depth ({1e3 * h.value:.3g} um) would determine it to +- 12")
 
 
 # ------------------------------------------------------------------ the page and the figures

@@ -7,7 +7,7 @@ import pytest
 
 from skin_indent.effects import EFFECTS, Model, effect
 from skin_indent.mechanics import NeoHooke
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 
 
 def test_vocabulary_names_and_units():
@@ -96,3 +96,18 @@ def test_contact_effects_switch_off_exactly_and_scale_with_E(name, on):
     f2 = model.simulate(two, protocol=ramp, mesh="coarse").force_mN
     assert np.abs(f2[1:] / (2 * f1[1:]) - 1).max() < 1e-6 and not np.array_equal(f1, base)
     assert model.unit_parameters(one) == model.unit_parameters(two)
+
+
+def test_a_model_is_one_noun_parsed_once_named_once_and_composed_with_plus():
+    from skin_indent.effects import Model, model_name, parse_effects
+    from skin_indent.fitting.model_fit import parse_model
+
+    m = Model.parse("neo-hooke+layer") + "layer" + ("adhesion",)
+    assert m.name == str(m) == "neo-hooke+layer+layer+adhesion" == model_name(m.effects)
+    assert m.parameter_names[-3:] == ("thickness2_mm", "ratio2", "w_mJ_per_m2")
+    assert parse_model(m.name) == parse_effects(m) == m.effects  # the fit's parser is the model's
+    assert (Model.parse("neo-hooke") + Model(("stiffening",))).effects == ("stiffening",)
+    for bad, why in (("layer", "starts with neo-hooke"), ("neo-hooke+friction", "weighed"),
+                     ("neo-hooke+adhesion+adhesion", "adhesion"), ("neo-hooke+glue", "glue")):
+        with pytest.raises(ValueError, match=why):
+            Model.parse(bad)

@@ -343,7 +343,7 @@ def test_fe_fit_recovers_layer_and_stiffening():
     the loop, warm-started near the truth, recovers the parameters within 3 standard deviations."""
     from skin_indent.fitting.multistart import Fitter
     from skin_indent.measurement import measurement_from_arrays, prepare
-    from skin_indent.protocol import Protocol
+    from skin_indent.mechanics.protocol import Protocol
 
     truth = {"E_kPa": 8.0, "nu": 0.47, "thickness_mm": 1.5, "ratio": 0.3, "C20_kPa": 16.0}
     curve = Model(("layer", "stiffening")).simulate(truth, protocol=Protocol.ramp(0.6, 60, 0.02), mesh="coarse")
@@ -385,8 +385,9 @@ def test_add_layer_twice_is_two_layers_in_diagnosis():
     and finds them: the curve (medium mesh, as measured curves have no coarse-mesh node crossings)
     is explained within the noise allowance and the layers are within 3 sd of the truth."""
     from skin_indent.diagnosis import diagnose
+    from skin_indent.diagnosis.measurements import error_model
     from skin_indent.measurement import measurement_from_arrays
-    from skin_indent.protocol import Protocol
+    from skin_indent.mechanics.protocol import Protocol
 
     truth = {"E_kPa": 15.0, "nu": 0.48, "thickness_mm": 1.0, "ratio": 0.2, "thickness2_mm": 2.0, "ratio2": math.inf}
     curve = Model(("layer", "layer")).simulate(truth, protocol=Protocol.ramp(0.6, 50, 0.02), mesh="medium")
@@ -398,7 +399,7 @@ def test_add_layer_twice_is_two_layers_in_diagnosis():
     assert top.forward_runs > 0 and "thickness2_mm" in top.parameters
     # within 1.3x the noise allowance: the noise and the coarse in-loop model's 0.3% (at 27 mN the
     # coarse mesh alone is 0.027 mN RMS from this medium-mesh curve, as far as the noise)
-    allowance = float(np.sqrt(np.mean(d.fitter.sigma(top.prediction_mN) ** 2)))
+    allowance = float(np.sqrt(np.mean(error_model(top.prediction_mN, d.noise_mN) ** 2)))
     assert top.rms_mN < 1.3 * allowance, d.report()
     for k in ("E_kPa", "thickness_mm", "ratio", "thickness2_mm"):
         assert abs(top.parameters[k] - truth[k]) < 3 * top.std[k], (k, top.parameters[k], top.std[k])

@@ -21,11 +21,12 @@ from analytic_model import HertzLikeModel
 from skin_indent.fitting import fit, multistart, resume
 from skin_indent.fitting.ended import BOUND, BUDGET, EDGE, START, how_it_ended, moved
 from skin_indent.measurement import measurement_from_arrays
+from skin_indent.response_surface import SurfaceCore
 
 NOISE = 0.01
 
 
-class _Core(HertzLikeModel):
+class _Core(HertzLikeModel, SurfaceCore):
     """The analytic stand-in as an elastic core: a depth range and a name, as a surface has."""
 
     name = "analytic"
@@ -73,7 +74,7 @@ def _fit(m, model="neo-hooke", tmp_path=None):
 
 def _outputs(result, tmp_path):
     """The text report, the JSON flags and the TSV table of one fit."""
-    from skin_indent.batch import _row_of
+    from skin_indent.fitting.batch import _row_of
     from skin_indent.report.batch_table import write_tsv
 
     text = result.report()

@@ -40,7 +40,7 @@ from scipy.special import ellipe, ellipk
 
 from skin_indent.mechanics import IndentationProblem, LinearElastic, NeoHooke, SphericalIndenter, graded_mesh
 from skin_indent.mechanics.contact import ContactLaw
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 from skin_indent.simulate import simulate
 
 R = 6.22

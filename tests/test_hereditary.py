@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from skin_indent.analytic import hertz_force, ting_ramp_force
+from skin_indent.mechanics.analytic import hertz_force, ting_ramp_force
 from skin_indent.effects.hereditary import hereditary_force, relaxation_weights
 
 R, E, NU = 6.22, 10.0, 0.45
@@ -83,7 +83,7 @@ def test_power_law_load_and_unload_equal_tings_closed_form(beta, cut_s, tol):
     contact radius from Ting's rule), small strain: the hereditary integral within ``tol`` of the
     peak force, contact lost at the same sample. Measured (1201 + 1200 points): 3.0e-6, 4.0e-5 (the
     10 us cut: (t_c / t)^(1 - beta)), 3.1e-4 (beta = 0.6 with no cut: the steps at short lags)."""
-    from skin_indent.analytic import ting_power_law_force
+    from skin_indent.mechanics.analytic import ting_power_law_force
     from skin_indent.effects.hereditary import CUT_S, PowerLawKernel
 
     t, h = _triangle()

@@ -393,7 +393,7 @@ def test_hertz_fit_agrees_with_nanite_unweighted(name, index):
 def test_hertz_fit_on_the_stiff_map_curve_reaches_a_lower_cost_than_nanite():
     """Map curve 1: E differs from nanite's by 40%, but on the same model and data our optimum
     has the smaller sum of squares: nanite stops at another minimum of the contact point."""
-    from skin_indent.analytic import hertz_force
+    from skin_indent.mechanics.analytic import hertz_force
     from skin_indent.fitting import fit_hertz
 
     ref = json.loads((FILES / "nanite_reference.json").read_text())

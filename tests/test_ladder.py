@@ -15,7 +15,7 @@ from skin_indent.data import bundled_path
 from skin_indent.diagnosis import diagnose
 from skin_indent.effects import Model
 from skin_indent.measurement import load_csv, measurement_from_arrays
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 
 
 def _own(effects, theta, *, sigma, seed, protocol=None, shift_mm=0.0, mesh="coarse"):

@@ -6,7 +6,7 @@ import pytest
 from skfem import MeshTri
 from _data import load_curve
 
-from skin_indent.analytic import dimitriadis_bonded_force, hertz_force
+from skin_indent.mechanics.analytic import dimitriadis_bonded_force, hertz_force
 from skin_indent.mechanics import LinearElastic, NeoHooke, SphericalIndenter
 from skin_indent.mechanics.materials import NeoHookeStiffening
 from skin_indent.mechanics.layers import RIGID, Layer, LayeredSample

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from skfem import asm
 
-from skin_indent.analytic import hertz_force, sneddon_sphere_force
+from skin_indent.mechanics.analytic import hertz_force, sneddon_sphere_force
 from skin_indent.mechanics import (ConvergenceError, IndentationProblem, LinearElastic, NeoHooke,
                                    SphericalIndenter, graded_mesh, load_mesh)
 from skin_indent.mechanics.weakform import residual_form, tangent_form

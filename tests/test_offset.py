@@ -5,7 +5,7 @@ import pytest
 from _data import load_curve
 
 from skin_indent.mechanics import NeoHooke, SphericalIndenter
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 from skin_indent.simulate import simulate
 
 R = 6.22

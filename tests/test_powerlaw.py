@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from skin_indent.analytic import hertz_force, ting_power_law_force
+from skin_indent.mechanics.analytic import hertz_force, ting_power_law_force
 from skin_indent.effects import EFFECTS, Model, effect, instances
 from skin_indent.effects.hereditary import PowerLawKernel
 from skin_indent.effects.repeat import addable
 from skin_indent.mechanics import LinearElastic, SphericalIndenter
 from skin_indent.mechanics.materials.viscoelastic import Viscoelastic, power_law_prony
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 from skin_indent.simulate import simulate
 
 R = 6.22

@@ -265,27 +265,28 @@ def cache_with_surfaces(tmp_path, gallery_cache, diagnosis_surfaces, monkeypatch
 @pytest.mark.xdist_group("diagnose-answer-key")
 def test_a_rerun_of_a_diagnosis_solves_nothing(cache_with_surfaces, solves):
     """The forearm-like curve on surfaces (two explanations climbed, the measurement that separates
-    them predicted by forward runs, friction weighed by two runs), then its identifiability checks:
-    made again, nothing is solved and every number is the same."""
+    them predicted by forward runs, friction weighed by two runs), then its plan (the finite-element
+    Jacobians of what it does not determine): made again, nothing is solved and every number is the same."""
     from skin_indent.data import bundled_path
-    from skin_indent.diagnosis import diagnose
-    from skin_indent.diagnosis.identifiability import RECORDED, assess
+    from skin_indent.diagnosis import diagnose, plan
     from skin_indent.measurement import load_csv
+    from skin_indent.runtime.context import Context
 
     m = load_csv(bundled_path("forearm_like.csv"))
 
     def once():
         d = diagnose(m, cache_dir=cache_with_surfaces, mesh="coarse", workers=1, in_loop=False)
-        layer = d.fitter.fits[("layer",)]
-        checks = assess(d.fitter, layer, (RECORDED,))
+        checks = plan(d, context=Context(cache_dir=cache_with_surfaces, workers=1))
         return d, checks
 
     d1, checks1 = once()
-    assert solves.n > 0 and d1.suggested_measurement and checks1[0].std, d1.report()
+    assert solves.n > 0 and d1.suggested_measurement and checks1.recorded_std, d1.report()
     solves.refuse()
     d2, checks2 = once()
     out1, out2 = d1.to_dict(), d2.to_dict()
     out1.pop("provenance"), out2.pop("provenance")
     assert out1 == out2
-    assert checks2[0].std == checks1[0].std and checks2[0].forward_runs == checks1[0].forward_runs
+    plan1, plan2 = checks1.to_dict(), checks2.to_dict()
+    plan1.pop("provenance"), plan2.pop("provenance")
+    assert plan1 == plan2
     assert list((cache_with_surfaces / "fe-runs").rglob("*.npz"))

@@ -27,10 +27,11 @@ from analytic_model import HertzLikeModel
 from skin_indent.cli import main
 from skin_indent.effects import Model
 from skin_indent.fitting import fit
+from skin_indent.response_surface import SurfaceCore
 from skin_indent.fitting.model_fit import prepare_curve
 from skin_indent.measurement import load_csv, measurement_from_arrays, save_csv
 from skin_indent.models import ComposedModel, JointModel
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 
 #: noise of the synthetic curves (mN): the forearm-like curve's is 0.05
 NOISE = 0.03
@@ -57,7 +58,7 @@ def curve(effects, theta, radius_mm, *, depth_mm=0.6, n=100, noise=NOISE, seed=0
 
 
 # ----------------------------------------------------------------------------- the joint model
-class _Core(HertzLikeModel):
+class _Core(HertzLikeModel, SurfaceCore):
     """The analytic stand-in as an elastic core (a depth range, as a surface has)."""
 
     def __init__(self, radius_mm, lower=(1.0, 0.2), upper=(100.0, 0.49)):

@@ -31,7 +31,7 @@ from skin_indent import simulate
 from skin_indent.mechanics.contact import ContactLaw, SphereContact, SphericalIndenter
 from skin_indent.mechanics.layers import RIGID, Layer, LayeredSample
 from skin_indent.mechanics.materials import LinearElastic, NeoHooke, NeoHookeStiffening, PronyTerm, Viscoelastic
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 
 SPHERE = SphericalIndenter(6.22)
 NU = 0.45

@@ -13,7 +13,7 @@ References:
   of dimensionality reduction), the layer's correction an integral of a kernel decaying like
   :math:`e^{-2\\xi T}`. Converged to ~4e-6 in F/h^1.5 (more terms, points and samples).
 - **Dimitriadis et al., Biophys. J. 82 (2002) 2798-2810**, the bonded-sample correction
-  :func:`skin_indent.analytic.dimitriadis_bonded_force` (:math:`\\chi = \\sqrt{Rh}/T`; at
+  :func:`skin_indent.mechanics.analytic.dimitriadis_bonded_force` (:math:`\\chi = \\sqrt{Rh}/T`; at
   nu = 0.5: 1 + 1.133 chi + 1.283 chi^2 + 0.769 chi^3 + 0.0975 chi^4). It is an asymptotic
   series cut after chi^4 with its coefficients fitted as functions of nu, so its error grows
   with chi: against the exact solution above it is 0.8-1.4 % low at chi = 0.23, 2-4 % at 0.35,
@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 from scipy.special import beta, jv
 
-from skin_indent.analytic import dimitriadis_bonded_force, hertz_force
+from skin_indent.mechanics.analytic import dimitriadis_bonded_force, hertz_force
 from skin_indent.effects import Model, effect
 from skin_indent.mechanics import LinearElastic, NeoHooke, SphericalIndenter
 from skin_indent.mechanics.layers import RIGID, SQUEEZE_FROM, Layer, LayeredSample

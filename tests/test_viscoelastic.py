@@ -4,11 +4,11 @@ limits, the independent finite-element curve v06 (loading and unloading)."""
 import numpy as np
 import pytest
 
-from skin_indent.analytic import ting_ramp_force
+from skin_indent.mechanics.analytic import ting_ramp_force
 from skin_indent.mechanics import LinearElastic, NeoHooke, SphericalIndenter
 from skin_indent.mechanics.axisymmetric import F_COMPONENTS
 from skin_indent.mechanics.materials.viscoelastic import PronyTerm, Viscoelastic
-from skin_indent.protocol import Protocol
+from skin_indent.mechanics.protocol import Protocol
 from skin_indent.simulate import simulate
 
 from _data import load_curve

@@ -45,7 +45,7 @@ def test_a_warm_start_gives_the_cold_solution():
 def test_a_history_dependent_problem_refuses_a_warm_start():
     from skin_indent.mechanics.contact import ContactLaw
     from skin_indent.mechanics.materials import NeoHooke
-    from skin_indent.protocol import Protocol
+    from skin_indent.mechanics.protocol import Protocol
 
     with pytest.raises(ValueError, match="path-independent"):
         simulate(NeoHooke(8.0, 0.45), SphericalIndenter(R), protocol=Protocol.ramp(0.3, 5), mesh="coarse",

@@ -60,7 +60,7 @@ _EXPORTS = {
     "MaterialLayer": "skin_indent.mechanics.layers",
     "LayeredSample": "skin_indent.mechanics.layers",
     "RIGID": "skin_indent.mechanics.layers",
-    "Protocol": "skin_indent.protocol",
+    "Protocol": "skin_indent.mechanics.protocol",
     "Model": "skin_indent.effects",
     "Effect": "skin_indent.effects",
     "EFFECTS": "skin_indent.effects",

@@ -14,9 +14,10 @@ the curve to the noise, writing the ladder's report (``diagnosis/index.html``) a
 one sentence saying what was missing.
 
 Then it closes the loop: one curve cannot tell two layers from a layer with
-stiffening, and the diagnosis names the measurement that would separate them (a
-sphere of half the radius). The bundled curve of the same skin indented with that
-sphere (``forearm_like_R3.11mm.csv``, same independent code) is added, both curves are
+stiffening, and the diagnosis names the measurement that would separate them best (a
+sphere of twice the radius; half the radius separates them too). The bundled curve of the
+same skin indented with a sphere of half the radius (``forearm_like_R3.11mm.csv``, same
+independent code) is added, both curves are
 diagnosed together (:func:`~skin_indent.diagnosis.diagnose` with a list: the material
 shared, each curve its own sphere, contact point and noise), and the joint verdict, its
 report (``diagnosis-both/index.html``) and a figure of both curves with the final

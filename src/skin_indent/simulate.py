@@ -1,7 +1,7 @@
 """The seam between the mechanics and everything else: :func:`simulate`.
 
 Response surfaces, inversion and diagnosis reach the finite-element model only
-through this module, so they can be tested against :mod:`skin_indent.analytic`
+through this module, so they can be tested against :mod:`skin_indent.mechanics.analytic`
 without running finite elements.
 
 Example
@@ -27,7 +27,7 @@ from .mechanics.layers import LayeredSample
 from .mechanics.materials import Material, NeoHooke
 from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh
 from .mechanics.solver import IndentationProblem, NewtonReport
-from .protocol import Protocol
+from .mechanics.protocol import Protocol
 from .mechanics.fields import write_vtu
 from .mechanics.sensitivity import DirectSensitivity
 from .mechanics.sensitivity import check_differentiable

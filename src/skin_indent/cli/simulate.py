@@ -79,7 +79,7 @@ def add_simulate(sub):
 def _run_simulate(args) -> int:
     from ..mechanics.contact import SphericalIndenter
     from ..measurement import load_csv
-    from ..protocol import Protocol
+    from ..mechanics.protocol import Protocol
 
     material = _sample(args)
     indenter = SphericalIndenter(args.radius)

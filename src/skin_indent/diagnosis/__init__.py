@@ -3,10 +3,12 @@ physical effect is missing, add it and watch the error fall.
 
 - :mod:`skin_indent.inverse.residuals`: is a residual noise or structure, and where (statistics);
 - :mod:`skin_indent.fitting.multistart`: the fits of one diagnosis, each a :class:`Rung`;
-- :mod:`.identifiability`: what the curve determines, and which measurement would determine the rest;
+- :mod:`.identifiability`: the one engine of the next measurement: what the curve determines, which
+  measurement would separate the explanations and determine the rest (the diagnosis' sentences and
+  :func:`plan` read it);
 - :mod:`.measurements`: the measurements a user can make next, what fitted models predict for
   them (every finite-element run through one function), how far apart, what they would determine;
-- :mod:`.evidence`: which measurement separates two candidates (the diagnosis' sentence);
+- :mod:`.evidence`: the sentence naming the measurement that separates two explanations;
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
 - :mod:`.criteria`: what it decides by (the BIC margins, the noise allowance, :func:`~.criteria.explained`);
 - :mod:`.result`: its outcome, :class:`Diagnosis`: the text, sentence and JSON of one set of numbers;

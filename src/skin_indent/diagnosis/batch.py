@@ -191,7 +191,7 @@ def portable(diagnosis):
     """The diagnosis without what ties it to the process that made it, to send it back from a worker.
 
     Every rung keeps its numbers, predictions and residual analysis; the fitted force models
-    (``bound_model``: surfaces, finite-element cores) and the ``fitter`` are left out (about 25
+    (``bound_model``: surfaces, finite-element cores) are left out (about 25
     kB instead of MBs). Its text, sentence, JSON and HTML report are those of the whole one.
     """
     light: dict = {}
@@ -202,7 +202,7 @@ def portable(diagnosis):
         return light[id(r)]
 
     return dataclasses.replace(
-        diagnosis, fitter=None, ladder=[rung(r) for r in diagnosis.ladder],
+        diagnosis, ladder=[rung(r) for r in diagnosis.ladder],
         ranking=[rung(r) for r in diagnosis.ranking], alternatives=[rung(r) for r in diagnosis.alternatives],
         steps=[dataclasses.replace(s, rung=rung(s.rung), ranking=[rung(r) for r in s.ranking],
                                    rivals=[rung(r) for r in s.rivals]) for s in diagnosis.steps],

@@ -1,102 +1,29 @@
 """Which measurement would separate two explanations that explain a curve about equally well.
 
-The sentence of a diagnosis (``suggested_measurement``), made by the machinery of
-:func:`~skin_indent.diagnosis.planning.plan` (:mod:`.measurements`: the same candidates,
-the same finite-element predictions, the same separation), on the diagnosis' three
-candidates only (:func:`weighed_candidates`), by the predicted forces alone (no
-Jacobian): the diagnosis stays as cheap as two runs per candidate.
+The sentence of a diagnosis (``suggested_measurement``), read from the one engine
+(:mod:`.identifiability`: :func:`~.identifiability.weigh`, the candidates, predictions and
+ranking that :func:`~skin_indent.diagnosis.planning.plan` reads too): it names the next
+measurement, the candidate ranked first, with how far apart the choice and its closest rival
+predict it (:func:`~.measurements.separation`).
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ..measurement.scale import Quantity, UnitText
-from ..models import JointModel
-from .measurements import (DEEPER, HOLD_S, Separation, acts_in_time, base_history, deeper, hold, model_of, predict,
-                           separation, sphere)
+from .measurements import Separation
 
-__all__ = ["compare", "suggest_measurement", "weighed_candidates"]
+__all__ = ["sentence", "suggest_measurement"]
 
 
-def weighed_candidates(data, h_mm, rungs) -> list:
-    """The measurements a diagnosis weighs: a sphere of half the radius to the same depth, an
-    indentation :data:`~.measurements.DEEPER` times deeper with the same sphere, and, where an
-    explanation acts along the time history and the curve has time, a
-    :data:`~.measurements.HOLD_S` s hold at the deepest point.
-
-    Parameters
-    ----------
-    data : PreparedCurve
-        The recorded curve.
-    h_mm : ndarray
-        Its points' depth below the contact point in the diagnosis' choice (mm).
-    rungs : sequence of Rung
-        The explanations.
-
-    Returns
-    -------
-    list of Candidate
-        Those that can be made (a sphere the depth does not exceed).
-    """
-    base = base_history(data, h_mm)
-    R, h = float(base.radius_mm), float(np.max(base.depth_mm))
-    out = []
-    for make in (lambda: sphere(base, R / 2), lambda: deeper(base, DEEPER * h)):
-        try:
-            out.append(make())
-        except ValueError:  # deeper than the sphere: not a measurement to suggest
-            continue
-    if base.time_s is not None and any(acts_in_time(f.bound_model.effects) for f in rungs):
-        out.append(hold(base, HOLD_S))
-    return out
-
-
-def compare(rungs, candidates, noise_mN: float, *, mesh: str, context=None) -> list[tuple]:
-    """How far apart the first explanation and each other one predict each candidate.
-
-    Parameters
-    ----------
-    rungs : sequence of Rung
-        The explanations, the diagnosis' choice first.
-    candidates : sequence of Candidate
-    noise_mN : float
-        The recorded curve's noise (mN).
-    mesh : str
-        Mesh of the finite-element runs.
-    context : Context, optional
-        Where the runs go (all at once).
-
-    Returns
-    -------
-    list of (Candidate, dict, list of Separation)
-        Per candidate whose runs all succeeded: the predicted forces ``{model: ndarray}``
-        (mN at its points) and the separation of each other explanation from the first.
-    """
-    tasks = {}
-    for f in rungs:
-        effects, theta = model_of(f, jacobian=False)
-        for k, c in enumerate(candidates):
-            tasks[(f.model, k)] = (effects, theta, c.curve, mesh, False)
-    got = predict(tasks, context=context)
-    out = []
-    for k, c in enumerate(candidates):
-        values = [got.get((f.model, k)) for f in rungs]
-        if any(not isinstance(v, tuple) for v in values):
-            continue  # a measurement we cannot predict is not suggested
-        forces = {f.model: v[0] for f, v in zip(rungs, values)}
-        a = rungs[0].model
-        out.append((c, forces, [separation(a, f.model, forces[a], forces[f.model], noise_mN) for f in rungs[1:]]))
-    return out
-
-
-def _names(a, b) -> tuple[str, str]:
-    """How the sentence names two explanations: the effect each adds on one rung, else their sets of effects."""
-    if len(a.effects) == len(b.effects) and a.effects[:-1] == b.effects[:-1]:
-        return a.effects[-1], b.effects[-1]
-    return "+".join(a.effects), "+".join(b.effects)
+def _names(a: str, b: str) -> tuple[str, str]:
+    """How the sentence names two explanations (models ``neo-hooke+layer+stiffening``): the effect each
+    adds on one rung, else their sets of effects."""
+    ea, eb = tuple(a.split("+")[1:]), tuple(b.split("+")[1:])
+    if len(ea) == len(eb) and ea[:-1] == eb[:-1]:
+        return ea[-1], eb[-1]
+    return "+".join(ea), "+".join(eb)
 
 
 def sentence(candidate, s: Separation, ea: str, eb: str, noise_mN: float) -> str:
@@ -126,23 +53,15 @@ def sentence(candidate, s: Separation, ea: str, eb: str, noise_mN: float) -> str
                     times=s.max_difference_mN / noise_mN, separation=s.separation, points=s.points)
 
 
-def suggest_measurement(fitter, a, b) -> str:
-    """Which extra measurement separates two fitted explanations, with the predicted difference.
-
-    The diagnosis' candidates (:func:`weighed_candidates`) are predicted by both fitted
-    models (:func:`compare`: finite-element runs at the fitted values, all at once in the
-    diagnosis' workers), and the one whose predicted curves lie furthest apart in
-    root-sum-square noise units (:func:`~.measurements.separation`) is named, with the
-    largest difference (mN, and over the noise).
+def suggest_measurement(outlook) -> str:
+    """Which extra measurement separates the explanations of an outlook, with the predicted difference.
 
     Parameters
     ----------
-    fitter : Fitter
-        The diagnosis' fits (the recorded curve, its noise, the mesh, the context); for several
-        curves of one sample, the measurements are of the first curve (its sphere, its history,
-        its noise).
-    a, b : Rung
-        The diagnosis' choice and its rival.
+    outlook : Outlook
+        :func:`~.identifiability.weigh` of the explanations (the choice first), ranked
+        (:func:`~.identifiability.rank`): the next measurement is its first candidate, the one whose
+        predicted curves lie furthest apart from the closest rival, in root-sum-square noise units.
 
     Returns
     -------
@@ -151,19 +70,9 @@ def suggest_measurement(fitter, a, b) -> str:
         :class:`~skin_indent.measurement.scale.UnitText` (:func:`sentence`) in package units that
         reads in the units of the curve's scale, or a plain ``str`` when no measurement separates them.
     """
-    ea, eb = _names(a, b)
-    data, model, x = fitter.data, a.bound_model, a.x
-    if isinstance(model, JointModel):  # several curves of one sample: measurements like the first curve
-        data = fitter.curves[0]
-        model, x = model.part(0, x)
-    try:
-        h = np.asarray(model.evaluate(x).h_mm, dtype=float)
-        candidates = weighed_candidates(data, h, (a, b))
-        rows = compare((a, b), candidates, fitter.noise_mN, mesh=fitter.mesh, context=getattr(fitter, "context", None))
-    except ValueError:  # no measurement we can predict: none suggested
-        rows = []
-    rows = [(c, s[0]) for c, _, s in rows if math.isfinite(s[0].separation)]
-    if not rows:
+    top = outlook.next if outlook is not None else None
+    s = top.closest if top is not None else None
+    if s is None or not math.isfinite(s.separation):
         return "no extra measurement computed here separates them"
-    c, s = max(rows, key=lambda r: r[1].separation)
-    return sentence(c, s, ea, eb, fitter.noise_mN)
+    ea, eb = _names(s.a, s.b)
+    return sentence(top.candidate, s, ea, eb, outlook.noise_mN)

@@ -1,552 +1,488 @@
-r"""What the data determine, and which measurement would determine the rest.
+r"""One engine for "which measurement next, and what would it settle".
 
-A parameter of a fitted rung is *not determined* by the curve when its standard
-deviation exceeds :data:`DETERMINED` times its value. This module predicts, from the
-fitted model itself, the standard deviation every parameter would have under another
-measurement of the same sample (the alternatives of :data:`ALTERNATIVES`: a sphere of
-twice the radius to the same depth, an indentation 1.5 times deeper with the same
-sphere, a sphere of half the radius to the same depth):
+The diagnosis' identifiability sentences ("thickness_mm = 1.11 +- 0.9: not determined by this
+curve; ... would determine it to +- ..."), its "would separate them" sentence
+(:func:`~.evidence.suggest_measurement`) and :func:`~.planning.plan` read ONE computation,
+:func:`weigh`, on ONE candidate set (:func:`candidates`), ranked by ONE rule (:func:`rank`):
+they cannot disagree. A :func:`~.workflow.diagnose` keeps its outcome (an :class:`Outlook`,
+plain data) and :func:`~.planning.plan` with its default settings reads it back.
+
+**The candidates** (:mod:`.measurements`): the recorded history replayed as another
+measurement of the same sample would record it: the same sphere again (the yardstick), a
+sphere of half and of twice the radius to the same depths, an indentation
+:data:`~.measurements.DEEPER` times deeper at the same speed, and, where an explanation acts
+along the time history and the curve has time, a :data:`~.measurements.HOLD_S` s hold at the
+deepest point (``plan`` takes the radii, depth, hold and speeds a user owns).
+
+**What a candidate would determine.** The standard deviation of a parameter is predicted for
+the candidate fitted TOGETHER with the recorded curve(s): that is the fit a user makes once the
+new curve is measured (``fit A B --sample``, ``diagnose --sample``), so its standard deviation
+is the number that answers "how well would it determine the parameter". The information
+matrices of the curves add (the shared parameters; each curve keeps its own contact point where
+the fitted model fits one), with the priors' rows,
 
 .. math::
 
-    \mathrm{cov}(\theta) = (J^T W J)^{-1}, \qquad W = \mathrm{diag}(1 / \sigma_i^2),
+    \mathrm{cov}(\theta) = \Big(\sum_k J_k^T W_k J_k + P^T P\Big)^{-1}, \qquad
+    W_k = \mathrm{diag}(1 / \sigma_{k,i}^2), \quad
+    \sigma_{k,i}^2 = \sigma_k^2 + (\varepsilon F_{k,i})^2,
 
-with :math:`J` the Jacobian of the model at the fitted parameters evaluated for the
-alternative measurement (the finite-element model,
-:class:`~skin_indent.models.fe_core.FECore`: direct-differentiation sensitivities for the
-material parameters, finite differences for the thicknesses; one Jacobian per
-alternative, on the diagnosis' mesh), the same points (the recorded history with its
-indentation scaled, at the recorded times) and the same noise model :math:`\sigma_i`
-(``Fitter.sigma``: noise and model error in quadrature). The reported parameters'
-standard deviations follow by the rung's own transformation
-(:meth:`~skin_indent.models.ComposedModel.reported`).
+(:func:`~.measurements.joint_std`) with :math:`J_k` the finite-element Jacobian of the fitted
+model at its values on curve :math:`k`'s points (:func:`~.measurements.predicted_force`:
+direct-differentiation sensitivities, one run per thickness), :math:`\sigma_k` the recorded
+noise and :math:`\varepsilon` = :data:`~skin_indent.fitting.rung.MODEL_ERROR`. The candidate
+alone would overstate what it leaves undetermined: its correlations differ from the recorded
+curve's, and fitted together the two break each other's (on the forearm-like curve a sphere of
+twice the radius alone leaves the thickness at +- 0.28 mm, fitted with the recorded curve at
++- 0.06 mm). The recorded curves alone give :attr:`Outlook.recorded_std`, the standard
+deviations the diagnosis reports for the parameters its fit leaves loose (a response surface's
+interpolated slopes can inflate the fit's). A parameter is *determined* when its standard
+deviation is below :data:`DETERMINED` times its value.
 
-It also says when a fit parameter on a face of its range stands at a physical limit
-(:func:`~skin_indent.models.composed.at_physical_limit`: a rigid base, a nearly incompressible material) rather than
-at the edge of what the fit could reach.
+**What a candidate would separate**: the predicted curves of the diagnosis' choice and each
+rival over the candidate's points (:func:`~.measurements.separation`, :math:`S` in noise units).
+
+**The order** (:func:`rank`): the larger separation from the closest rival first (when
+explanations compete), then the more undetermined parameters determined, then the smaller
+product of the standard deviations relative to the recorded curves'. The first is *the next
+measurement*, named by the diagnosis and by the plan.
 """
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
+import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..effects import ELASTIC
-from ..inverse.result import jacobian_covariance
-from ..measurement.scale import Quantity, UnitText
-from ..models import ComposedModel, JointModel
-from ..fitting.rung import MODEL_ERROR
-from ..models.fe_core import FECore
-from ..response_surface import RunCache
-from ..runtime.executors import available_cpus
+from ..fitting.knowledge import prior_rows
+from ..measurement.scale import Name, Quantity, UnitText
+from ..models import JointModel
+from ..models.composed import at_physical_limit
+from .criteria import FROM_FE, FROM_FIT, RIVAL
+from .measurements import (DEEPER, HOLD_S, Block, Candidate, Separation, acts_in_time, base_history, deeper,
+                           error_model, free_columns, hold, joint_std, model_of, predict, recorded_history,
+                           separation, speed, sphere)
+
+log = logging.getLogger(__name__)
 
 #: a parameter is determined when its standard deviation is below this fraction of its value
 DETERMINED = 0.5
+#: below this separation (noise units) a candidate cannot separate two explanations: S^2, the chi-square
+#: rise before refitting, is under :data:`~.criteria.RIVAL`, the BIC gap at which a diagnosis excludes a rival
+TOO_CLOSE = math.sqrt(RIVAL)
 
 
-@dataclass(frozen=True)
-class Alternative:
-    """A measurement of the same sample other than the recorded one.
-
-    Attributes
-    ----------
-    key : str
-        ``"larger sphere"``, ``"deeper"``, ``"smaller sphere"``.
-    radius_factor : float
-        Sphere radius over the recorded one.
-    depth_factor : float
-        Indentation (depth below the contact point) over the recorded one, point by point.
-    short : str
-        How a sentence names it among others (``"a larger sphere"``).
-    """
-
-    key: str
-    radius_factor: float
-    depth_factor: float
-    short: str
-
-    def describe(self, radius_mm: float, depth_mm: float) -> str:
-        """The measurement in words.
-
-        Parameters
-        ----------
-        radius_mm : float
-            Sphere radius of the recorded curve (mm).
-        depth_mm : float
-            Its deepest indentation (mm).
-
-        Returns
-        -------
-        str
-            E.g. ``"an indentation 1.5 times deeper (0.9 mm)"``: a
-            :class:`~skin_indent.measurement.scale.UnitText`, which reads in the units of the
-            curve's scale (``"(0.9 um)"``...).
-        """
-        h = Quantity(self.depth_factor * depth_mm, "mm")
-        if self.depth_factor != 1.0 and self.radius_factor == 1.0:
-            return UnitText("an indentation {k:g} times deeper ({h:.3g})", k=self.depth_factor, h=h)
-        size = {2.0: "twice the radius", 0.5: "half the radius"}.get(self.radius_factor,
-                                                                     f"{self.radius_factor:g} times the radius")
-        depth = ("the same depth" if self.depth_factor == 1.0
-                 else f"{self.depth_factor:g} times the depth")
-        return UnitText("a sphere of {size} ({R:.3g}) to {depth} ({h:.3g})", size=size,
-                        R=Quantity(self.radius_factor * radius_mm, "mm"), depth=depth, h=h)
-
-
-#: the recorded measurement itself: its finite-element standard deviations check the fit's own
-#: (a surface's interpolated slopes can inflate the standard deviation of correlated parameters)
-RECORDED = Alternative("recorded", 1.0, 1.0, "this measurement")
-#: the alternatives :func:`assess` evaluates, in this order
-ALTERNATIVES = (Alternative("larger sphere", 2.0, 1.0, "a larger sphere"),
-                Alternative("deeper", 1.0, 1.5, "a deeper indentation"),
-                Alternative("smaller sphere", 0.5, 1.0, "a smaller sphere"))
-
-
-@dataclass(frozen=True)
-class Prediction:
-    """The predicted uncertainty of a fitted model's parameters under one alternative measurement.
+# ----------------------------------------------------------------------------- results (plain data)
+@dataclass
+class Assessment:
+    """What one candidate measurement would bring.
 
     Attributes
     ----------
-    alternative : Alternative
-    label : str
-        The measurement in words, with its sphere radius and depth (mm; :meth:`Alternative.describe`).
-    std : dict or None
-        ``{reported parameter: standard deviation}`` in the parameters' units; None when
-        the computation failed.
-    error : str or None
-        Why it failed (a finite-element run that did not converge, a parameter outside
-        the range of the finite-element model...), else None.
-    forward_runs : int
-        Finite-element runs it made.
-    """
-
-    alternative: Alternative
-    label: str
-    std: dict | None
-    error: str | None = None
-    forward_runs: int = 0
-
-
-# ----------------------------------------------------------------------------- the measurement
-def _indentation(model, x) -> np.ndarray:
-    """Depth below the contact point (mm) of the model's recorded points at the fit vector ``x``."""
-    return np.asarray(model.evaluate(x).h_mm, dtype=float)
-
-
-def alternative_data(data, h_mm, radius_factor: float, depth_factor: float, force_mN=None):
-    """The recorded history as another measurement would record it.
-
-    Parameters
-    ----------
-    data : PreparedCurve
-        The recorded points.
-    h_mm : ndarray
-        Their depth below the contact point (mm) in the fitted model.
-    radius_factor, depth_factor : float
-        Sphere radius and indentation over the recorded ones.
-    force_mN : ndarray, optional
-        Forces (mN) to store with the points (what the effects' fit bounds depend on,
-        e.g. adhesion's); default the recorded ones.
-
-    Returns
-    -------
-    PreparedCurve
-        The same points and times; each depth moved so that its indentation is
-        ``depth_factor`` times the recorded one (the contact point stays), the radius
-        ``radius_factor`` times the recorded one (mm).
-    """
-    depth = np.asarray(data.depth_mm, dtype=float) + (depth_factor - 1.0) * h_mm
-    contact = float(np.median(np.asarray(data.depth_mm, dtype=float) - h_mm))
-    guess = contact + depth_factor * (float(data.contact_guess_mm) - contact)
-    force = np.asarray(data.force_mN if force_mN is None else force_mN, dtype=float)
-    return dataclasses.replace(data, depth_mm=depth, force_mN=force, radius_mm=float(data.radius_mm) * radius_factor,
-                               contact_guess_mm=guess)
-
-
-def _widen(bounds, x) -> tuple:
-    """Bounds ``(lo, hi)`` widened to contain ``x`` (a Jacobian at the fit, not a fit, is evaluated)."""
-    lo, hi = (np.asarray(b, dtype=float) for b in bounds)
-    return np.minimum(lo, x), np.maximum(hi, x)
-
-
-def alternative_model(rung, h_mm, radius_factor: float, depth_factor: float, *, mesh: str, workers=None,
-                      run_cache=None):
-    """The rung's model bound to an alternative measurement, with the finite-element model as its core.
-
-    Parameters
-    ----------
-    rung : Rung
-        The fitted rung (``bound_model``, ``x``, ``prediction_mN``).
-    h_mm : ndarray
-        Indentation (mm) of the recorded points in the fitted model.
-    radius_factor, depth_factor : float
-        Sphere radius and indentation over the recorded ones.
-    mesh : str
-        Mesh family member of the runs (the diagnosis' ``fitter.mesh``).
-    workers : int, optional
-        Local processes for the finite-difference runs.
-    run_cache : RunCache, optional
-        Where the runs are kept (:class:`~skin_indent.response_surface.RunCache`).
-
-    Returns
-    -------
-    ComposedModel
-        Its ``bounds`` (and its core's) widened to contain the fitted vector.
-
-    Raises
-    ------
-    ValueError
-        The alternative's model does not have the rung's parameters.
-    """
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    data = alternative_data(model.data, h_mm, radius_factor, depth_factor, force_mN=rung.prediction_mN)
-    reach = depth_factor * float(np.max(h_mm))
-    E, nu = float(x[0]), float(x[1])
-    core = FECore([e for e in model.effects if e.stage == ELASTIC], radius_mm=float(data.radius_mm),
-                  max_depth_mm=reach, e_star_kPa=E / (1.0 - nu**2), mesh=mesh, workers=workers,
-                  run_cache=run_cache)
-    n_core = len(core.parameter_names)
-    core.bounds = _widen(core.bounds, x[:n_core])
-    new = ComposedModel(core, model.effects, data)
-    if new.parameter_names != model.parameter_names:
-        core.close()
-        raise ValueError(f"the alternative model has parameters {new.parameter_names}, not {model.parameter_names}")
-    new.bounds = _widen(new.bounds, x)
-    return new
-
-
-# ----------------------------------------------------------------------------- the covariance
-def _held(rung) -> set:
-    """Fit parameters the rung's covariance holds at their value: those on a face of their range when
-    the covariance with them free is not finite (as :meth:`Fitter.fit` does)."""
-    cov = getattr(rung, "covariance", None)
-    if cov is not None and np.all(np.isfinite(cov)):
-        return set()
-    return set(getattr(rung, "at_bounds", ()))
-
-
-def reported_std(model, x, J, sigma, free) -> dict:
-    """Standard deviations of the reported parameters from a Jacobian.
-
-    Parameters
-    ----------
-    model : ComposedModel
-        Gives the reported parameters of the fit vector (:meth:`ComposedModel.reported`).
-    x : ndarray
-        Fit vector.
-    J : ndarray (n, p)
-        Jacobian dF/dx at ``x`` (mN per unit of each fit parameter).
-    sigma : ndarray (n,)
-        Standard deviation of each point's force (mN).
-    free : sequence of int
-        Columns fitted; the others are held at their value (no variance).
-
-    Returns
-    -------
-    dict
-        ``{reported parameter: standard deviation}`` from cov = (J^T W J)^-1, W = diag(1 / sigma^2)
-        (``inf`` where the Jacobian is rank deficient).
-    """
-    free = list(free)
-    unscaled, _ = jacobian_covariance(np.asarray(J, dtype=float)[:, free] / np.asarray(sigma, dtype=float)[:, None])
-    cov = np.zeros((x.size, x.size))
-    cov[np.ix_(free, free)] = unscaled
-    return model.reported(x, cov)[1]
-
-
-def predicted_std(fitter, rung, *, radius_factor: float = 1.0, depth_factor: float = 1.0,
-                  error_model: bool = True, in_workers: bool = False, bound: tuple | None = None) -> tuple[dict, int]:
-    """Standard deviation every reported parameter of ``rung`` would have under another measurement.
-
-    The fitted model at its fitted parameters, with the finite-element model as its
-    elastic core, is bound to the recorded history with the sphere radius scaled by
-    ``radius_factor`` and the indentation of every point (depth below the contact point)
-    scaled by ``depth_factor``, at the recorded times (same number of points; a deeper
-    indentation is then also faster). Its Jacobian (one finite-element run with
-    direct-differentiation sensitivities, plus one run per thickness) gives
-    cov = (J^T W J)^-1 with W = diag(1 / sigma_i^2) at the predicted forces, and the
-    reported parameters' standard deviations by the rung's transformation.
-
-    With history effects (``viscoelastic``) the relaxation is the model's hereditary
-    integral over that history: a larger or smaller sphere keeps the recorded history, a
-    deeper indentation scales its depths (the rates by the same factor).
-
-    Parameters
-    ----------
-    fitter : Fitter
-        The diagnosis' fits: the recorded points, the noise model ``sigma(force)`` (mN),
-        the mesh and the context (its ``workers``).
-    rung : Rung
-        A fitted model (``bound_model``, ``x``, ``free_names``, ``prediction_mN``).
-    radius_factor, depth_factor : float
-        The alternative measurement (1, 1: the recorded one).
-    error_model : bool
-        ``True`` (default): sigma_i of ``fitter.sigma`` (noise and model error in
-        quadrature); ``False``: the noise ``fitter.noise_mN`` alone, as the rung's own
-        covariance (``noise^2 (J^T J)^-1``).
-    in_workers : bool
-        Make the runs in worker processes (:func:`assess` computes several at once).
-    bound : tuple, optional
-        Passed to :func:`alternative_jacobian`.
-
-    Returns
-    -------
+    candidate : Candidate
+    forces : dict
+        ``{model: ndarray}``: each explanation's predicted curve at the candidate's points (mN).
+    separations : list of Separation
+        The choice against each rival (:class:`~.measurements.Separation`).
     std : dict
-        ``{reported parameter: standard deviation}`` in its unit (kPa, mm, -...).
-    runs : int
-        Finite-element runs made.
-
-    Raises
-    ------
-    ValueError
-        A finite-element run failed, or the indentation leaves the model's range.
+        ``{reported parameter: standard deviation}`` of the current model when the candidate is
+        fitted with the recorded curves (empty when not computed).
+    determines : list of str
+        The undetermined parameters it would determine (sd below :data:`DETERMINED` times the value).
+    error : str or None
+        Why it could not be predicted (a run that did not converge...), else None.
     """
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    J, force, runs = alternative_jacobian(fitter, rung, radius_factor, depth_factor, in_workers=in_workers,
-                                          bound=bound)
-    sigma = fitter.sigma(force) if error_model else np.full(force.shape, float(fitter.noise_mN))
-    held = _held(rung)
-    names = model.parameter_names
-    free = [names.index(n) for n in rung.free_names if n not in held]
-    return reported_std(model, x, J, sigma, free), runs
+
+    candidate: Candidate
+    forces: dict = field(default_factory=dict, repr=False)
+    separations: list = field(default_factory=list)
+    std: dict = field(default_factory=dict)
+    determines: list = field(default_factory=list)
+    error: str | None = None
+
+    @property
+    def closest(self) -> Separation | None:
+        """The separation of the closest rival (None without rival)."""
+        return min(self.separations, key=lambda s: s.separation, default=None)
+
+    @property
+    def separation(self) -> float:
+        """S of the closest rival (noise units; NaN without rival)."""
+        return math.nan if self.closest is None else self.closest.separation
+
+    @property
+    def too_close(self) -> bool:
+        """S^2 of a rival stays below :data:`~.criteria.RIVAL`: this candidate cannot separate it."""
+        return self.closest is not None and self.separation < TOO_CLOSE
+
+    def score(self, recorded_std: dict, names) -> float:
+        """Sum of log(sd with the candidate / sd of the recorded curves alone) over ``names`` (lower is
+        better; 0 without any)."""
+        out = 0.0
+        for k in names:
+            sd, base = self.std.get(k, math.nan), recorded_std.get(k, math.nan)
+            if math.isfinite(sd) and math.isfinite(base) and sd > 0 and base > 0:
+                out += math.log(sd / base)
+        return out
 
 
-def _bind(fitter, rung, radius_factor: float, depth_factor: float) -> tuple:
-    """``(alternative_model, indentation h (mm))`` of the rung for another measurement."""
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    h = _indentation(model, x)
-    if not np.any(h > 0):
-        raise ValueError("no recorded point is in contact in the fitted model")
-    context = getattr(fitter, "context", None)
-    cache = None if context is None else RunCache(context.cache_dir)  # the runs kept with the fits'
-    return alternative_model(rung, h, radius_factor, depth_factor, mesh=fitter.mesh,
-                             workers=getattr(context, "workers", None), run_cache=cache), h
+@dataclass
+class Outlook:
+    """The outcome of :func:`weigh`: every candidate measurement, what it would separate and determine.
+
+    Attributes
+    ----------
+    explanations : list of str
+        The models weighed against each other, the choice first (one: nothing competes).
+    current : str
+        The model whose standard deviations are predicted (the diagnosis' last rung).
+    recorded_std : dict
+        ``{reported parameter: standard deviation}`` of ``current`` from the recorded curves alone
+        (finite-element Jacobians at the fitted values, the priors included); empty when not computed.
+    noise_mN : float
+        The noise of the first recorded curve, the noise of every candidate (mN).
+    ranking : list of Assessment
+        The candidates, best first (:func:`rank`); those that could not be predicted last.
+    skipped : dict
+        ``{measurement: why}``: measurements not weighed.
+    notes : list of str
+    settings : dict
+        The candidate settings it was weighed with (``radii_mm``, ``max_depth_mm``, ``hold_s``,
+        ``speeds_mm_per_s``; None: the defaults).
+    """
+
+    explanations: list
+    current: str
+    recorded_std: dict
+    noise_mN: float
+    ranking: list
+    skipped: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def with_std(self) -> bool:
+        """The standard deviations were computed (the finite-element Jacobians)."""
+        return bool(self.recorded_std)
+
+    def best(self, n: int = 1) -> list:
+        """The first ``n`` candidates that could be predicted."""
+        return [a for a in self.ranking if a.error is None][:n]
+
+    @property
+    def next(self) -> Assessment | None:
+        """The next measurement: the best candidate that could be predicted (None: none)."""
+        top = self.best(1)
+        return top[0] if top else None
 
 
-def alternative_jacobian(fitter, rung, radius_factor: float = 1.0, depth_factor: float = 1.0, *,
-                         in_workers: bool = False, bound: tuple | None = None) -> tuple:
-    """Jacobian of the rung's model at its fitted vector for another measurement, by finite elements.
-
-    With ``radius_factor = depth_factor = 1`` it is the finite-element Jacobian of the
-    recorded measurement itself (what a covariance of the fit free of a response
-    surface's interpolation error would use).
+# ----------------------------------------------------------------------------- the candidates
+def candidates(base, *, radii=None, max_depth_mm=None, hold_s=None, speeds=(), not_in_time: str | None = None,
+               given=frozenset()) -> tuple[list, dict]:
+    """The candidates to weigh, and ``{measurement: why not}``.
 
     Parameters
     ----------
-    fitter : Fitter
-        The recorded points, the mesh and the context (its ``workers``).
-    rung : Rung
-        A fitted model (``bound_model``, ``x``, ``prediction_mN``).
-    radius_factor, depth_factor : float
-        Sphere radius and indentation (point by point) over the recorded ones.
-    in_workers : bool
-        Make the runs in worker processes, this thread only waiting for them
-        (:meth:`~skin_indent.models.fe_core.FECore.in_workers`).
-    bound : tuple, optional
-        ``(model, h)`` of this measurement made before (by :func:`assess`, in the main
-        thread, its workers started there); default: made here.
-
-    Returns
-    -------
-    J : ndarray (n, p)
-        Derivatives dF/dx (mN per unit of each fit parameter, ``rung.bound_model.parameter_names``).
-    force : ndarray (n,)
-        The predicted forces of that measurement (mN).
-    runs : int
-        Finite-element runs made.
-
-    Raises
-    ------
-    ValueError
-        A finite-element run failed, or the indentation leaves the model's range.
+    base : PreparedCurve
+        :func:`~.measurements.base_history` of the first recorded curve.
+    radii : sequence of float, optional
+        Sphere radii (mm); default half and twice the recorded one. The recorded radius is always
+        weighed (the yardstick).
+    max_depth_mm : float, optional
+        Default :data:`~.measurements.DEEPER` times the recorded depth.
+    hold_s : float, optional
+        Default :data:`~.measurements.HOLD_S`.
+    speeds : sequence of float
+        Other loading speeds (mm/s).
+    not_in_time : str, optional
+        Why a hold and other speeds are not weighed (None: they are).
+    given : set
+        The settings the user gave (``"radii"``, ``"max_depth_mm"``, ``"hold_s"``): those that cannot
+        be made raise ``ValueError``; defaults that cannot be made are skipped.
     """
-    x = np.asarray(rung.x, dtype=float)
-    new, h = bound if bound is not None else _bind(fitter, rung, radius_factor, depth_factor)
-    core = new.core
-    try:
-        n_core = len(core.parameter_names)
-        touch = depth_factor * h > 0
-        with core.in_workers() if in_workers else contextlib.nullcontext():
-            core.jacobian(depth_factor * h[touch], x[:n_core])  # the runs, sensitivities included, made once
-        J = new.jacobian(new.depth_mm, x)
-        force = new.force(new.depth_mm, x)
-    finally:
-        runs = core.runs
-        core.close()
-    if not np.all(np.isfinite(J)):
-        raise ValueError("the Jacobian of the alternative measurement is not finite")
-    return J, force, runs
+    R, h = float(base.radius_mm), float(np.max(base.depth_mm))
+    radii = (R / 2, 2 * R) if radii is None else tuple(radii)
+    out, skipped = [], {}
+
+    def add(what, make, strict):
+        try:
+            c = make()
+        except ValueError as err:
+            if strict:
+                raise
+            skipped[what] = str(err)
+            return
+        if not any(o.kind == c.kind and math.isclose(o.value, c.value, rel_tol=1e-6) for o in out):
+            out.append(c)
+
+    for r in [R, *radii]:
+        add(f"a sphere of R = {r:g} mm", lambda r=r: sphere(base, r), "radii" in given and r != R)
+    depth = DEEPER * h if max_depth_mm is None else max_depth_mm
+    add(f"an indentation to {depth:.3g} mm", lambda: deeper(base, depth), "max_depth_mm" in given)
+    wanted_hold = HOLD_S if hold_s is None else hold_s
+    if not_in_time is None:
+        add(f"a {wanted_hold:g} s hold", lambda: hold(base, wanted_hold), "hold_s" in given)
+        for v in speeds:
+            add(f"a loading speed of {v:g} mm/s", lambda v=v: speed(base, v), True)
+    else:
+        if "hold_s" in given:
+            skipped[f"a {wanted_hold:g} s hold"] = not_in_time
+        for v in speeds:
+            skipped[f"a loading speed of {v:g} mm/s"] = not_in_time
+    return out, skipped
 
 
-def assess(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
-    """Every alternative measurement's predicted standard deviations (:func:`predicted_std`).
+def indentation(rung, curve, i: int) -> np.ndarray:
+    """Depth below the contact point (mm) of the points of the ``i``-th recorded curve in the fitted
+    rung: its model's own depth stage for the curve it is bound to; for another curve of a joint
+    fit, the recorded depth past the curve's contact point as prepared (origin, or first guess)."""
+    model = rung.bound_model
+    if isinstance(model, JointModel):  # a joint fit: the curve's own model, with its own fitted contact point
+        part, x = model.part(i, rung.x)
+        return np.asarray(part.evaluate(x).h_mm, dtype=float)
+    if getattr(model, "data", None) is curve:
+        return np.asarray(model.evaluate(np.asarray(rung.x, dtype=float)).h_mm, dtype=float)
+    origin = 0.0 if curve.contact_mode == "origin" else float(curve.contact_guess_mm)
+    return np.asarray(curve.depth_mm, dtype=float) - origin
 
-    A computation that fails (a run that does not converge, a parameter outside a
-    range) is a :class:`Prediction` with ``std`` None and the reason, never an exception.
+
+def prior_terms(priors: dict, model) -> list:
+    """The priors ``{name: (mean, sd)}`` on reported parameters of ``model`` as ``(g, mean, sd)`` terms
+    (:func:`~skin_indent.fitting.knowledge.prior_rows` reads them), ``g(theta)`` the reported parameter."""
+    names = model.model_parameters(0.5 * (model.bounds[0] + np.minimum(model.bounds[1], 1e6)))
+    return [(lambda theta, k=k: float(model.model_parameters(theta)[k]), float(m), float(sd))
+            for k, (m, sd) in (priors or {}).items() if k in names]
+
+
+def explanations(current, missing: bool, rivals, first) -> list:
+    """The explanations a diagnosis could not separate, its choice first.
 
     Parameters
     ----------
-    fitter : Fitter
-        The diagnosis' fits (recorded points, noise model, mesh, context).
-    rung : Rung
-        A fitted model.
-    alternatives : sequence of Alternative
-        The measurements to assess (default :data:`ALTERNATIVES`).
+    current : Rung
+        The last rung.
+    missing : bool
+        The climb added effects to the given model.
+    rivals : sequence of Rung
+        The other explanations within :data:`~.criteria.RIVAL` of its BIC, best first.
+    first : Step or None
+        The first examination.
 
     Returns
     -------
-    list of Prediction
-        One per alternative, in order.
+    list of Rung
+        ``[current, *rivals]`` when the climb added effects; else the first examination's best
+        candidate and its rivals when it named any; else ``[current]`` (nothing competes).
     """
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    if isinstance(model, JointModel):
-        return assess_sample(fitter, rung, alternatives)
-    try:
-        h_max = float(np.max(_indentation(model, x)))
-    except Exception as err:  # noqa: BLE001 - nothing to assess: no alternative is suggested
-        return [Prediction(a, a.short, None, f"{type(err).__name__}: {err}") for a in alternatives]
-    radius = float(model.data.radius_mm)
-    workers = getattr(getattr(fitter, "context", None), "workers", None)
-    if workers is None:  # the context's default, as the cores' own: at most 2 local processes
-        workers = min(2, available_cpus())
-    concurrent = workers > 1 and len(alternatives) > 1
-
-    def failed(a, err):
-        first = str(err).splitlines()[0] if str(err) else ""
-        return Prediction(a, a.describe(radius, h_max), None, f"{type(err).__name__}: {first}")
-
-    def predict(a, bound=None):
-        if isinstance(bound, Exception):
-            return failed(a, bound)
-        try:
-            std, runs = predicted_std(fitter, rung, radius_factor=a.radius_factor, depth_factor=a.depth_factor,
-                                      in_workers=concurrent, bound=bound)
-        except Exception as err:  # noqa: BLE001 - a failed alternative is not suggested
-            return failed(a, err)
-        return Prediction(a, a.describe(radius, h_max), std, None, runs)
-
-    if not concurrent:
-        return [predict(a) for a in alternatives]
-    from concurrent.futures import ThreadPoolExecutor
-
-    # the alternatives side by side, as many as there are workers: each thread waits for its runs,
-    # made by workers forked here, in the main thread, before the threads start
-    bound = []
-    for a in alternatives:
-        made = None
-        try:
-            made = _bind(fitter, rung, a.radius_factor, a.depth_factor)
-            made[0].core.start_workers()
-            bound.append(made)
-        except Exception as err:  # noqa: BLE001 - reported as that alternative's failure
-            if made is not None:
-                made[0].core.close()
-            bound.append(err)
-    with ThreadPoolExecutor(max_workers=min(workers, len(alternatives))) as pool:
-        return list(pool.map(predict, alternatives, bound))
+    if missing:
+        return [current, *rivals]
+    if first is not None and first.rivals:
+        return [first.ranking[0], *first.rivals]
+    return [current]
 
 
-def suggestion(name: str, value: float, predictions) -> str:
+# ----------------------------------------------------------------------------- the computation
+def _failure(values) -> str:
+    err = next(v for v in values if not isinstance(v, tuple))
+    return f"{type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}"
+
+
+def weigh(rungs, current, curves, noises, *, with_std: bool, priors=None, mesh: str = "coarse", context=None,
+          radii=None, max_depth_mm=None, hold_s=None, speeds=(), given=frozenset()) -> Outlook:
+    """Every candidate measurement predicted by the fitted models: separations and standard deviations.
+
+    Parameters
+    ----------
+    rungs : sequence of Rung
+        The explanations, the choice first (one: only standard deviations are predicted).
+    current : Rung
+        The model whose standard deviations are predicted (the diagnosis' last rung).
+    curves, noises : sequence
+        The recorded curves (PreparedCurve) and their noise (mN), in input order.
+    with_std : bool
+        Compute the finite-element Jacobians (the standard deviations).
+    priors : dict, optional
+        ``{name: (mean, sd)}``: the priors of the fits.
+    mesh : str
+        Mesh of the finite-element runs.
+    context : Context, optional
+        Where the runs go and are kept (all at once: :func:`~.measurements.predict`).
+    radii, max_depth_mm, hold_s, speeds, given
+        The candidate settings (:func:`candidates`).
+
+    Returns
+    -------
+    Outlook
+        Its ``ranking`` not yet ranked (:func:`rank` orders it once the undetermined parameters are known).
+    """
+    choice = rungs[0]
+    base = base_history(curves[0], indentation(choice, curves[0], 0))
+    not_in_time = None
+    if base.time_s is None:
+        not_in_time = "the recorded curve has no time column"
+    elif not any(acts_in_time(f.bound_model.effects) for f in rungs):
+        not_in_time = "no explanation acts along the time history: their forces do not depend on it"
+    cands, skipped = candidates(base, radii=radii, max_depth_mm=max_depth_mm, hold_s=hold_s, speeds=speeds,
+                                not_in_time=not_in_time, given=given)
+    noise = float(noises[0])
+
+    def force_key(f, k):  # the current rung's force comes with its Jacobian where that is computed
+        return ("jacobian", "candidate", k) if with_std and f is current else (f.model, "force", k)
+
+    tasks = {}
+    for f in rungs:  # the explanations' forces (the predicted curves a plan writes)
+        if with_std and f is current:
+            continue
+        effects, theta = model_of(f, jacobian=False)
+        for k, c in enumerate(cands):
+            tasks[(f.model, "force", k)] = (effects, theta, c.curve, mesh, False)
+    if with_std:  # the current rung's Jacobians: the recorded curves and each candidate
+        effects, theta = model_of(current, jacobian=True)
+        for i, curve in enumerate(curves):
+            tasks[("jacobian", "recorded", i)] = (effects, theta, recorded_history(curve, indentation(current, curve, i)),
+                                                  mesh, True)
+        for k, c in enumerate(cands):
+            tasks[("jacobian", "candidate", k)] = (effects, theta, c.curve, mesh, True)
+    log.info("the next measurement: %d explanation%s, %d candidates: %d finite-element predictions", len(rungs),
+             "s" if len(rungs) != 1 else "", len(cands), len(tasks))
+    got = predict(tasks, context=context)
+
+    def block(key, n, own):
+        v = got.get(key)
+        return Block(v[1], v[2], error_model(v[0], n), own=own) if isinstance(v, tuple) else None
+
+    terms = prior_terms(priors, current.bound_model) if with_std else ()
+    free = free_columns(current) if with_std else []
+    notes, recorded_std, blocks = [], {}, []
+    if with_std:
+        blocks = [block(("jacobian", "recorded", i), n, i > 0) for i, n in enumerate(noises)]
+        if any(b is None for b in blocks):
+            notes.append("the finite-element Jacobian of the recorded curve failed: no standard deviation predicted")
+            blocks = []
+        else:
+            recorded_std = {k: float(v) for k, v in joint_std(current, blocks, free, terms, prior_rows).items()}
+    ranking = []
+    for k, c in enumerate(cands):
+        values = [got.get(force_key(f, k)) for f in rungs]
+        if any(not isinstance(v, tuple) for v in values):
+            ranking.append(Assessment(c, error=_failure(values)))
+            continue
+        a = Assessment(c, forces={f.model: v[0] for f, v in zip(rungs, values)})
+        a.separations = [separation(choice.model, f.model, a.forces[choice.model], a.forces[f.model], noise)
+                         for f in rungs[1:]]
+        if blocks:
+            extra = block(("jacobian", "candidate", k), noise, True)
+            if extra is None:
+                a.error = _failure([got.get(("jacobian", "candidate", k))])
+            else:
+                sd = joint_std(current, [*blocks, extra], free, terms, prior_rows)
+                a.std = {n: float(v) for n, v in sd.items()}
+        ranking.append(a)
+    settings = {"radii_mm": None if radii is None else list(radii), "max_depth_mm": max_depth_mm, "hold_s": hold_s,
+                "speeds_mm_per_s": list(speeds)}
+    return Outlook([f.model for f in rungs], current.model, recorded_std, noise, ranking, skipped, notes, settings)
+
+
+def rank(outlook: Outlook, undetermined: dict) -> Outlook:
+    """Order ``outlook.ranking`` (module docstring) for the parameters ``undetermined`` (``{name: value}``),
+    each assessment's ``determines`` set; in place, and returned."""
+    for a in outlook.ranking:
+        a.determines = [n for n, v in undetermined.items()
+                        if a.std.get(n, math.inf) < DETERMINED * abs(v)] if a.error is None else []
+
+    def key(a):
+        sep = a.separation if a.separations else 0.0
+        return (a.error is None, sep if math.isfinite(sep) else -math.inf, len(a.determines),
+                -a.score(outlook.recorded_std, undetermined))
+
+    outlook.ranking = sorted(outlook.ranking, key=key, reverse=True)
+    return outlook
+
+
+# ----------------------------------------------------------------------------- what the diagnosis says
+def loose(rung, fixed) -> list:
+    """Parameters of ``rung`` whose fitted standard deviation is not below :data:`DETERMINED` times the
+    value (a value held, ``fixed``, is known, not determined)."""
+    return [k for k, v in rung.parameters.items()
+            if k not in fixed and math.isfinite(v) and not rung.std.get(k, math.nan) <= DETERMINED * abs(v)]
+
+
+def suggestion(name: str, value: float, outlook: Outlook | None) -> str:
     """What would determine the parameter ``name`` (value ``value``), as a clause to append.
-
-    Parameters
-    ----------
-    name : str
-        A reported parameter.
-    value : float
-        Its fitted value (in its unit).
-    predictions : sequence of Prediction
-        From :func:`assess`.
 
     Returns
     -------
     str
-        ``"; <measurement> would determine it to +- <sd>"`` for the alternative with the
-        smallest predicted standard deviation, when it is below :data:`DETERMINED` times
-        the value (a :class:`~skin_indent.measurement.scale.UnitText`: the measurement's
-        lengths and the standard deviation, in the parameter's unit, read in any units);
-        ``"; none of <the alternatives> would determine it"`` when none is; ``""`` when no
-        alternative could be evaluated.
+        ``"; fitted with this curve, <measurement> would determine it to +- <sd>"``: the next
+        measurement (``outlook.next``) when it determines the parameter, else the candidate with the
+        smallest standard deviation that does (a :class:`~skin_indent.measurement.scale.UnitText`);
+        ``"; none of the measurements weighed (...) would determine it"`` when none does; ``""``
+        when nothing was computed.
     """
-    done = [p for p in predictions if p.std is not None and name in p.std]
+    if outlook is None or not outlook.with_std:
+        return ""
+    done = [a for a in outlook.ranking if a.error is None and name in a.std]
     if not done:
         return ""
-    sds = [p.std[name] if math.isfinite(p.std[name]) else math.inf for p in done]
-    best = int(np.argmin(sds))
-    if sds[best] < DETERMINED * abs(value):
-        return UnitText("; {label} would determine it to +- {sd:.2g}", label=done[best].label,
-                        sd=Quantity(sds[best], name))
-    keys = [p.alternative.key for p in done]
-    if sorted(keys) == sorted(a.key for a in ALTERNATIVES):
-        return "; none of a larger/smaller sphere or a deeper indentation would determine it"
-    shorts = [p.alternative.short for p in done]
-    if len(shorts) == 1:
-        return f"; {shorts[0]} would not determine it either"
-    return f"; none of {', '.join(shorts[:-1])} or {shorts[-1]} would determine it"
+    limit = DETERMINED * abs(value)
+    top = outlook.next
+    pick = top if top is not None and top.std.get(name, math.inf) < limit else \
+        min(done, key=lambda a: a.std[name] if math.isfinite(a.std[name]) else math.inf)
+    if pick.std[name] < limit:
+        return UnitText("; fitted with this curve, {label} would determine it to +- {sd:.2g}",
+                        label=pick.candidate.label, sd=Quantity(pick.std[name], name))
+    kinds = {"sphere": "another sphere", "deeper": "a deeper indentation", "hold": "a hold", "speed": "another speed"}
+    weighed = list(dict.fromkeys(kinds[a.candidate.kind] for a in done if not a.candidate.reference))
+    what = ", ".join(weighed[:-1]) + " or " + weighed[-1] if len(weighed) > 1 else "".join(weighed)
+    return f"; fitted with this curve, none of the measurements weighed ({what or 'the same again'}) would determine it"
 
 
-# ----------------------------------------------------------------------------- physical limits
+def determine(rung, fixed, outlook: Outlook | None) -> tuple[dict, dict, dict, dict]:
+    """What the curve determines of a fitted rung, from the fit and the engine's :class:`Outlook`.
 
+    Parameters
+    ----------
+    rung : Rung
+        The diagnosis' last rung (the fit's ``std``, ``at_bounds``).
+    fixed : dict
+        The values held (known, not determined).
+    outlook : Outlook or None
+        :func:`weigh` of this rung (None: no finite-element run was allowed or needed).
 
-# ----------------------------------------------------------------------------- several curves
-def curve_rung(rung, k: int):
-    """Curve ``k``'s part of a rung fitted to several curves of one sample: its composed model, fit
-    vector and predicted forces (what :func:`alternative_jacobian` takes)."""
-    model = rung.bound_model
-    part, x = model.part(k, rung.x)
-    return dataclasses.replace(rung, bound_model=part, x=x, prediction_mN=np.asarray(rung.prediction_mN)[model.slices[k]],
-                               covariance=None, at_bounds=())
-
-
-def assess_sample(fitter, rung, alternatives=ALTERNATIVES) -> list[Prediction]:
-    """:func:`assess` of a rung fitted to several curves of one sample.
-
-    The recorded measurement (:data:`RECORDED`) is every curve (the finite-element Jacobian of
-    each curve in its rows); another measurement is ADDED to them: the first curve as that
-    alternative would record it (a sphere of twice the radius...), its information summed with
-    the recorded curves' (the user fits them all together).
+    Returns
+    -------
+    std : dict
+        The rung's standard deviations, those of the parameters the fit leaves loose replaced by the
+        finite-element ones of the recorded curves (``outlook.recorded_std``: they decide).
+    std_source : dict
+        ``{name: FROM_FIT or FROM_FE}``.
+    reasons : dict
+        ``{name: why not determined}`` (:class:`~skin_indent.measurement.scale.UnitText`).
+    undetermined : dict
+        ``{name: value}`` of the parameters not determined (loose, or at the edge of their range)
+        that have a finite value: what the outlook is ranked for, what ``plan`` plans for.
     """
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    names = model.parameter_names
-    held = _held(rung)
-    free = [names.index(n) for n in rung.free_names if n not in held]
-    first = curve_rung(rung, 0)
-    radius = float(first.bound_model.data.radius_mm)
-
-    def jacobian(k, a):
-        """Rows of curve ``k`` as ``a`` would record it, in the joint columns; its sigma and its runs."""
-        J, force, runs = alternative_jacobian(fitter, curve_rung(rung, k), a.radius_factor, a.depth_factor)
-        rows = np.zeros((J.shape[0], x.size))
-        rows[:, model.index(k)] = J
-        sigma = np.sqrt(fitter.noises_mN[k] ** 2 + (MODEL_ERROR * np.abs(force)) ** 2)
-        return rows, sigma, runs
-
-    try:
-        h_max = float(np.max(_indentation(first.bound_model, first.x)))
-        recorded = [jacobian(k, RECORDED) for k in range(len(model.parts))]
-    except Exception as err:  # noqa: BLE001 - nothing to assess: no alternative is suggested
-        return [Prediction(a, a.short, None, f"{type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}")
-                for a in alternatives]
-    J0 = np.vstack([r for r, _, _ in recorded])
-    s0 = np.concatenate([s for _, s, _ in recorded])
-    runs0 = sum(n for _, _, n in recorded)
-    out = []
-    for a in alternatives:
-        label = a.describe(radius, h_max) if a is not RECORDED else "these measurements"
-        if a is RECORDED:
-            out.append(Prediction(a, label, reported_std(model, x, J0, s0, free), None, runs0))
-            continue
-        try:
-            J, sigma, runs = jacobian(0, a)
-        except Exception as err:  # noqa: BLE001 - a failed alternative is not suggested
-            out.append(Prediction(a, "adding " + label, None, f"{type(err).__name__}: {str(err).splitlines()[0]}"))
-            continue
-        std = reported_std(model, x, np.vstack([J0, J]), np.concatenate([s0, sigma]), free)
-        out.append(Prediction(a, "adding " + label, std, None, runs))
-    return out
-
+    std = dict(rung.std)
+    source = {k: FROM_FIT for k in std}
+    names = loose(rung, fixed)
+    recorded = outlook.recorded_std if outlook is not None else {}
+    if recorded:  # the finite-element derivatives decide (a surface's slopes can inflate an sd)
+        for k in names:
+            if k in recorded:
+                std[k], source[k] = float(recorded[k]), FROM_FE
+        names = [k for k in names if not std[k] <= DETERMINED * abs(rung.parameters[k])]
+    edge = [k for k in rung.at_bounds if k not in names and not at_physical_limit(rung.bound_model, rung.x, k)]
+    undetermined = {k: float(rung.parameters[k]) for k in (*names, *edge)
+                    if k in rung.parameters and math.isfinite(rung.parameters[k])}
+    if outlook is not None:
+        rank(outlook, undetermined)
+    reasons = {k: UnitText("{name} = {value:.3g} +- {sd:.2g}: not determined by this curve{how}", name=Name(k),
+                           value=Quantity(rung.parameters[k], k), sd=Quantity(std.get(k, math.nan), k),
+                           how=suggestion(k, rung.parameters[k], outlook)) for k in names}
+    for k in edge:
+        reasons.setdefault(k, UnitText("{name} = {value:.4g} at the edge of its range: refitted from other starts and "
+                                       "still there", name=Name(k), value=Quantity(rung.fit_parameters.get(k, math.nan),
+                                                                                   k)))
+    return std, source, reasons, undetermined

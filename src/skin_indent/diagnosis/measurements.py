@@ -1,7 +1,7 @@
 r"""Measurements of the same sample that a user can make next, and what fitted models predict for them.
 
-The machinery behind :func:`~skin_indent.diagnosis.planning.plan` and the "would separate
-them" sentence of a diagnosis (:func:`~.evidence.suggest_measurement`):
+The parts of the one engine of the next measurement (:func:`~.identifiability.weigh`, which
+the diagnosis' sentences and :func:`~skin_indent.diagnosis.planning.plan` read):
 
 - **Candidates** (:class:`Candidate`): the recorded history replayed as another
   measurement would record it: a sphere of another radius to the same depths

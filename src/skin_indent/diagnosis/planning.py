@@ -1,38 +1,36 @@
 r"""The next measurement: what to measure to settle what a diagnosis left open.
 
-:func:`plan` takes a :class:`~skin_indent.diagnosis.Diagnosis` (or diagnoses the data)
-and, for what it could not settle,
+:func:`plan` takes a :class:`~skin_indent.diagnosis.Diagnosis` (or diagnoses the data) and,
+for what it could not settle,
 
 - **the explanations it could not separate** (:func:`explanations`: its choice and the
   rivals within :data:`~.workflow.RIVAL` of its BIC, or the first examination's rivals),
 - **the parameters it could not determine** (``not_determined`` of its last rung),
 
-ranks the measurements the user can make of the same sample (:mod:`.measurements`:
-each sphere radius they own, a deeper indentation, a hold, another loading speed; the
-recorded measurement made again is the yardstick) by
+ranks the measurements the user can make of the same sample (each sphere radius they own,
+a deeper indentation, a hold, another loading speed; the recorded measurement made again is
+the yardstick) by what they would separate and determine. It is the diagnosis' own engine
+(:mod:`.identifiability`: :func:`~.identifiability.weigh`, :func:`~.identifiability.rank`):
+with its default settings the plan reads the :class:`~.identifiability.Outlook` the diagnosis
+computed (the same next measurement, the same standard deviations, no run made); with other
+radii, depths, holds or speeds, or where the diagnosis kept to surfaces and computed no
+standard deviation, the same functions weigh them. The statistics:
 
 1. **the separation of the explanations** over the candidate's points, in noise units:
    :math:`S = (\sum_i (F_{b,i} - F_{a,i})^2 / \sigma_i^2)^{1/2}` between the predicted
    curves of the diagnosis' choice :math:`a` and its closest rival :math:`b`
    (:func:`~.measurements.separation`; :math:`\sigma_i` the error model of the fits), the
-   rise of the chi-square of one explanation if the other is true, before refitting.
-   Reported with it: the largest difference (mN, and over the noise), the statistic of
-   the diagnosis' sentence. A diagnosis excludes a rival at a BIC gap of
-   :data:`~.workflow.RIVAL`: a candidate with :math:`S^2` below it cannot separate them;
-   above it, a joint fit (which refits both and absorbs part of :math:`S^2`) will tell;
+   rise of the chi-square of one explanation if the other is true, before refitting. A
+   diagnosis excludes a rival at a BIC gap of :data:`~.workflow.RIVAL`: a candidate with
+   :math:`S^2` below it cannot separate them; above it, a joint fit (which refits both and
+   absorbs part of :math:`S^2`) will tell;
 2. **the expected standard deviation of each undetermined parameter** when the candidate
-   is fitted together with the recorded curves (:func:`~.measurements.joint_std`: the
-   information matrices summed, from finite-element Jacobians of the fitted model at its
-   values, each curve with its own contact point where the model fits one, the priors'
-   rows included); a parameter is then *determined* below
+   is fitted together with the recorded curves (the information matrices summed, from
+   finite-element Jacobians of the fitted model at its values, the priors' rows included:
+   :mod:`.identifiability`); a parameter is then *determined* below
    :data:`~.identifiability.DETERMINED` times its value.
 
-The order: the larger separation first (when explanations compete), then the candidates
-that determine more of the undetermined parameters, then the smaller product of the
-standard deviations relative to those of the recorded curves alone. Every finite-element
-run goes through :func:`~.measurements.predicted_force`, all at once in the workers (the
-rivals' forces alone; the Jacobians of the last rung where parameters are undetermined);
-the predicted curves and a figure are written by :func:`skin_indent.report.write_plan`.
+The predicted curves and a figure are written by :func:`skin_indent.report.write_plan`.
 """
 
 from __future__ import annotations
@@ -41,29 +39,22 @@ import logging
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
-from ..fitting.knowledge import prior_rows
 from ..fitting.model_fit import prepare_curve
 from ..measurement.scale import PACKAGE_UNITS
-from ..models import JointModel
+from ..runtime.context import context_of
 from ..runtime.json_io import jsonable
 from ..runtime.provenance import data_identity, provenance
-from .identifiability import DETERMINED
-from .measurements import Separation
-from .measurements import (DEEPER, HOLD_S, Block, Candidate, acts_in_time, base_history, deeper, error_model,
-                           free_columns, hold, joint_std, model_of, predict, recorded_history, separation, speed,
-                           sphere)
+from . import identifiability
+from .identifiability import TOO_CLOSE, Assessment, Outlook, rank, weigh
 from .workflow import RIVAL, Diagnosis, diagnose
 
 log = logging.getLogger(__name__)
 
+#: the keywords of a diagnosis that make its context (:func:`~skin_indent.runtime.context.context_of`)
+_CONTEXT = ("cache_dir", "workers", "client", "scheduler", "progress")
+
 __all__ = ["BEST", "TOO_CLOSE", "Assessment", "Plan", "explanations", "plan", "recorded"]
 
-#: below this separation (noise units) a candidate cannot separate two explanations: its S^2, the
-#: chi-square rise before refitting, is under :data:`~.workflow.RIVAL`, the gap at which a diagnosis
-#: excludes a rival
-TOO_CLOSE = math.sqrt(RIVAL)
 #: candidates whose predicted curves :func:`skin_indent.report.write_plan` writes
 BEST = 3
 
@@ -82,87 +73,15 @@ def recorded(diag) -> list[tuple]:
 
 
 def explanations(diag) -> list:
-    """The explanations a diagnosis could not separate, its choice first: the last rung and the
-    other explanations within :data:`~.workflow.RIVAL` of its BIC, or, when nothing was added,
-    the first examination's best candidate and its rivals. One rung when nothing competes."""
+    """The explanations a diagnosis could not separate, its choice first
+    (:func:`~.identifiability.explanations` of its last rung, its rivals within :data:`~.workflow.RIVAL`
+    of its BIC, and its first examination). One rung when nothing competes."""
     cur = diag.current
-    if diag.missing:
-        rivals = sorted((f for f in diag.alternatives if f.bic - cur.bic < RIVAL), key=lambda f: f.bic)
-        return [cur, *rivals]
-    first = diag.steps[0] if diag.steps else None
-    if first is not None and first.rivals:
-        return [first.ranking[0], *first.rivals]
-    return [cur]
-
-
-def _indentation(rung, curve, i: int) -> np.ndarray:
-    """Depth below the contact point (mm) of the points of the ``i``-th recorded curve in the fitted
-    rung: its model's own depth stage for the curve it is bound to; for another curve of a joint
-    fit, the recorded depth past the curve's contact point as prepared (origin, or first guess)."""
-    model = rung.bound_model
-    if isinstance(model, JointModel):  # a joint fit: the curve's own model, with its own fitted contact point
-        part, x = model.part(i, rung.x)
-        return np.asarray(part.evaluate(x).h_mm, dtype=float)
-    if getattr(model, "data", None) is curve:
-        return np.asarray(model.evaluate(np.asarray(rung.x, dtype=float)).h_mm, dtype=float)
-    origin = 0.0 if curve.contact_mode == "origin" else float(curve.contact_guess_mm)
-    return np.asarray(curve.depth_mm, dtype=float) - origin
+    rivals = sorted((f for f in diag.alternatives if f.bic - cur.bic < RIVAL), key=lambda f: f.bic)
+    return identifiability.explanations(cur, bool(diag.missing), rivals, diag.steps[0] if diag.steps else None)
 
 
 # ----------------------------------------------------------------------------- results
-@dataclass
-class Assessment:
-    """What one candidate measurement would bring.
-
-    Attributes
-    ----------
-    candidate : Candidate
-    forces : dict
-        ``{model: ndarray}``: each explanation's predicted curve at the candidate's points (mN).
-    separations : list of Separation
-        The choice against each rival (:class:`~.measurements.Separation`).
-    std : dict
-        ``{parameter: standard deviation}`` of the undetermined parameters of the diagnosis'
-        last rung when the candidate is fitted with the recorded curves.
-    determines : list of str
-        The undetermined parameters it would determine (sd below :data:`DETERMINED` times the value).
-    error : str or None
-        Why it could not be predicted (a run that did not converge...), else None.
-    """
-
-    candidate: Candidate
-    forces: dict = field(default_factory=dict, repr=False)
-    separations: list = field(default_factory=list)
-    std: dict = field(default_factory=dict)
-    determines: list = field(default_factory=list)
-    error: str | None = None
-
-    @property
-    def closest(self) -> Separation | None:
-        """The separation of the closest rival (None without rival)."""
-        return min(self.separations, key=lambda s: s.separation, default=None)
-
-    @property
-    def separation(self) -> float:
-        """S of the closest rival (noise units; NaN without rival)."""
-        return math.nan if self.closest is None else self.closest.separation
-
-    @property
-    def too_close(self) -> bool:
-        """S^2 of a rival stays below :data:`~.workflow.RIVAL`: this candidate cannot separate it."""
-        return self.closest is not None and self.separation < TOO_CLOSE
-
-    def score(self, recorded_std: dict) -> float:
-        """Sum of log(sd with the candidate / sd of the recorded curves alone) over the undetermined
-        parameters (lower is better; 0 without any)."""
-        out = 0.0
-        for k, sd in self.std.items():
-            base = recorded_std.get(k, math.nan)
-            if math.isfinite(sd) and math.isfinite(base) and sd > 0 and base > 0:
-                out += math.log(sd / base)
-        return out
-
-
 @dataclass
 class Plan:
     """The outcome of :func:`plan` (``to_dict`` is the JSON of ``skin-indent plan --json``).
@@ -175,32 +94,46 @@ class Plan:
         The explanations it could not separate, its choice first (one: nothing competes).
     undetermined : dict
         ``{parameter: value}`` of its last rung that it could not determine.
-    recorded_std : dict
-        Their standard deviations from the recorded curves alone by the plan's own route
-        (finite-element Jacobians at the fitted values, the priors included): the yardstick
-        of the candidates' ``std``. The diagnosis reports the same numbers where it computed
-        them by finite elements (``std_source``); kept to surfaces (``in_loop=False``), it
-        reports the fit's, and both are shown.
     noise_mN : float
         The noise of the first recorded curve, the noise of every candidate (mN).
-    ranking : list of Assessment
-        The candidates, best first; those that could not be predicted last.
-    skipped : dict
-        ``{measurement: why}``: measurements not weighed (a hold where no explanation acts
-        along the time history...).
+    outlook : Outlook or None
+        What the candidates would separate and determine (:class:`~.identifiability.Outlook`): the
+        diagnosis' own with the default settings; None when there is nothing to plan.
     notes : list of str
     provenance : dict
+
+    The candidates, best first, are :attr:`ranking` (:func:`~.identifiability.rank`; those that could
+    not be predicted last); :attr:`recorded_std` the undetermined parameters' standard deviations from
+    the recorded curves alone (finite-element Jacobians at the fitted values, the priors included),
+    the yardstick of the candidates' ``std``: the diagnosis reports the same numbers where it
+    computed them by finite elements (``std_source``); kept to surfaces (``in_loop=False``), it reports
+    the fit's, and both are shown.
     """
 
     diagnosis: Diagnosis = field(repr=False)
     explanations: list
     undetermined: dict
-    recorded_std: dict
     noise_mN: float
-    ranking: list
-    skipped: dict = field(default_factory=dict)
+    outlook: Outlook | None = None
     notes: list = field(default_factory=list)
     provenance: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def ranking(self) -> list:
+        """The candidates (:class:`~.identifiability.Assessment`), best first."""
+        return list(self.outlook.ranking) if self.outlook is not None else []
+
+    @property
+    def skipped(self) -> dict:
+        """``{measurement: why}``: measurements not weighed (a hold where no explanation acts along the
+        time history...)."""
+        return dict(self.outlook.skipped) if self.outlook is not None else {}
+
+    @property
+    def recorded_std(self) -> dict:
+        """``{undetermined parameter: sd}`` from the recorded curves alone."""
+        got = self.outlook.recorded_std if self.outlook is not None else {}
+        return {k: got[k] for k in self.undetermined if k in got}
 
     @property
     def nothing_to_plan(self) -> bool:
@@ -210,6 +143,10 @@ class Plan:
     @property
     def rivals(self) -> list:
         return self.explanations[1:]
+
+    def std_of(self, a: Assessment) -> dict:
+        """``{undetermined parameter: sd}`` of a candidate fitted with the recorded curves."""
+        return {k: a.std[k] for k in self.undetermined if k in a.std}
 
     def best(self, n: int = BEST) -> list:
         """The first ``n`` candidates that could be predicted."""
@@ -278,7 +215,7 @@ class Plan:
                 parts.append(f"{s.b}: S = {s.separation:.3g}, up to {s.max_difference_mN:.3g} mN "
                              f"({s.max_difference_noise:.1f} x noise)" + (", too close" if s.separation < TOO_CLOSE
                                                                           else ""))
-            for k, sd in a.std.items():
+            for k, sd in self.std_of(a).items():
                 parts.append(f"{k} +- {sd:.2g}" + (" (determined)" if k in a.determines else ""))
             lines.append(f"  {i}. {a.candidate.label}{ref}: " + "; ".join(parts))
         for what, why in self.skipped.items():
@@ -296,7 +233,7 @@ class Plan:
             return {"rank": rank, "kind": c.kind, "label": c.label, "value": c.value, "radius_mm": c.radius_mm,
                     "max_depth_mm": c.max_depth_mm, "points": c.n, "reference": c.reference,
                     "separation": a.separation if a.separations else None, "too_close": a.too_close,
-                    "separations": [s.to_dict() for s in a.separations], "std": dict(a.std),
+                    "separations": [s.to_dict() for s in a.separations], "std": self.std_of(a),
                     "determines": list(a.determines), "error": a.error}
 
         return jsonable({
@@ -329,41 +266,6 @@ class Plan:
 
 
 # ----------------------------------------------------------------------------- the plan
-def _candidates(base, *, radii, max_depth_mm, hold_s, speeds, not_in_time: str | None, given: set) -> tuple[list, dict]:
-    """The candidates to weigh, and ``{measurement: why not}``. Settings the user gave that cannot be
-    made raise ``ValueError``; defaults that cannot be made are skipped; a hold and other speeds are
-    weighed unless ``not_in_time`` says why not."""
-    R, h = float(base.radius_mm), float(np.max(base.depth_mm))
-    out, skipped = [], {}
-
-    def add(what, make, strict):
-        try:
-            c = make()
-        except ValueError as err:
-            if strict:
-                raise
-            skipped[what] = str(err)
-            return
-        if not any(o.kind == c.kind and math.isclose(o.value, c.value, rel_tol=1e-6) for o in out):
-            out.append(c)
-
-    for r in [R, *radii]:
-        add(f"a sphere of R = {r:g} mm", lambda r=r: sphere(base, r), "radii" in given and r != R)
-    depth = DEEPER * h if max_depth_mm is None else max_depth_mm
-    add(f"an indentation to {depth:.3g} mm", lambda: deeper(base, depth), "max_depth_mm" in given)
-    wanted_hold = HOLD_S if hold_s is None else hold_s
-    if not_in_time is None:
-        add(f"a {wanted_hold:g} s hold", lambda: hold(base, wanted_hold), "hold_s" in given)
-        for v in speeds:
-            add(f"a loading speed of {v:g} mm/s", lambda v=v: speed(base, v), True)
-    else:
-        if "hold_s" in given:
-            skipped[f"a {wanted_hold:g} s hold"] = not_in_time
-        for v in speeds:
-            skipped[f"a loading speed of {v:g} mm/s"] = not_in_time
-    return out, skipped
-
-
 def _check_settings(radii, max_depth_mm, hold_s, speeds) -> None:
     for name, values in (("radii", radii), ("speeds_mm_per_s", speeds)):
         for v in values:
@@ -398,8 +300,9 @@ def plan(data, *, radii=None, max_depth_mm: float | None = None, hold_s: float |
     speeds_mm_per_s : sequence of float
         Other loading speeds (mm/s), weighed as the hold.
     context : Context, optional
-        Where the runs go; default the diagnosis' (or one made of ``diagnose_options``'
-        ``workers``, ``client``, ``scheduler``, ``cache_dir``, ``progress``).
+        Where the runs go and are kept; default one made of ``diagnose_options``' ``workers``,
+        ``client``, ``scheduler``, ``cache_dir``, ``progress`` (a diagnosis holds no context: pass
+        the one it was made with to plan other settings with its runs' cache).
     **diagnose_options
         Passed to :func:`~skin_indent.diagnosis.diagnose` when ``data`` is a curve.
 
@@ -424,11 +327,8 @@ def plan(data, *, radii=None, max_depth_mm: float | None = None, hold_s: float |
         diag = data
     else:
         _check_reach(data, radii, max_depth_mm, diagnose_options)  # one line before minutes of diagnosis
+        context = context_of(context, **{k: diagnose_options.pop(k) for k in _CONTEXT if k in diagnose_options})
         diag = diagnose(data, context=context, **diagnose_options)
-        context = None
-    fitter = diag.fitter
-    context = context if context is not None else getattr(fitter, "context", None)
-    mesh = getattr(fitter, "mesh", "coarse")
     curves = recorded(diag)
     noise = curves[0][1]
     rungs = explanations(diag)
@@ -437,100 +337,28 @@ def plan(data, *, radii=None, max_depth_mm: float | None = None, hold_s: float |
                     if k in cur.parameters and math.isfinite(cur.parameters[k])}
     notes = [f"{k}: {why}" for k, why in diag.not_determined.items() if k not in undetermined]
     if len(rungs) < 2 and not undetermined:
-        return _recorded_plan(diag, rungs, {}, {}, noise, [], {}, notes, radii, max_depth_mm, hold_s, speeds)
-
-    choice = rungs[0]
-    R = float(curves[0][0].radius_mm)
-    radii = (R / 2, 2 * R) if radii is None else radii
-    base = base_history(curves[0][0], _indentation(choice, curves[0][0], 0))
-    not_in_time = None
-    if base.time_s is None:
-        not_in_time = "the recorded curve has no time column"
-    elif not any(acts_in_time(f.bound_model.effects) for f in rungs):
-        not_in_time = "no explanation acts along the time history: their forces do not depend on it"
-    candidates, skipped = _candidates(base, radii=radii, max_depth_mm=max_depth_mm, hold_s=hold_s, speeds=speeds,
-                                      not_in_time=not_in_time, given=given)
-
-    def force_key(f, k):  # the last rung's force comes with its Jacobian where that is computed
-        return ("jacobian", "candidate", k) if undetermined and f is cur else (f.model, "force", k)
-
-    tasks = {}
-    for f in rungs:  # the explanations' forces
-        if undetermined and f is cur:
-            continue
-        effects, theta = model_of(f, jacobian=False)
-        for k, c in enumerate(candidates):
-            tasks[(f.model, "force", k)] = (effects, theta, c.curve, mesh, False)
-    if undetermined:  # the last rung's Jacobians: the recorded curves and each candidate
-        effects, theta = model_of(cur, jacobian=True)
-        for i, (curve, _) in enumerate(curves):
-            tasks[("jacobian", "recorded", i)] = (effects, theta, recorded_history(curve, _indentation(cur, curve, i)),
-                                                  mesh, True)
-        for k, c in enumerate(candidates):
-            tasks[("jacobian", "candidate", k)] = (effects, theta, c.curve, mesh, True)
-    log.info("planning: %d explanation%s, %d undetermined parameter%s, %d candidates: %d finite-element predictions",
-             len(rungs), "s" if len(rungs) != 1 else "", len(undetermined), "s" if len(undetermined) != 1 else "",
-             len(candidates), len(tasks))
-    got = predict(tasks, context=context)
-
-    def block(key, n, own):
-        v = got.get(key)
-        return Block(v[1], v[2], error_model(v[0], n), own=own) if isinstance(v, tuple) else None
-
-    terms = fitter.prior_terms(cur.bound_model) if fitter is not None and hasattr(fitter, "prior_terms") else ()
-    recorded_std, blocks = {}, []
-    if undetermined:
-        blocks = [block(("jacobian", "recorded", i), n, i > 0) for i, (_, n) in enumerate(curves)]
-        if any(b is None for b in blocks):
-            notes.append("the finite-element Jacobian of the recorded curve failed: no standard deviation predicted")
-            blocks = []
-        else:
-            sd = joint_std(cur, blocks, free_columns(cur), terms, prior_rows)
-            recorded_std = {k: float(sd[k]) for k in undetermined if k in sd}
-
-    def failure(values):
-        err = next(v for v in values if not isinstance(v, tuple))
-        return f"{type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}"
-
-    ranking = []
-    for k, c in enumerate(candidates):
-        values = [got.get(force_key(f, k)) for f in rungs]
-        if any(not isinstance(v, tuple) for v in values):
-            ranking.append(Assessment(c, error=failure(values)))
-            continue
-        a = Assessment(c, forces={f.model: v[0] for f, v in zip(rungs, values)})
-        a.separations = [separation(choice.model, f.model, a.forces[choice.model], a.forces[f.model], noise)
-                         for f in rungs[1:]]
-        if blocks:
-            extra = block(("jacobian", "candidate", k), noise, True)
-            if extra is None:
-                a.error = failure([got.get(("jacobian", "candidate", k))])
-            else:
-                sd = joint_std(cur, [*blocks, extra], free_columns(cur), terms, prior_rows)
-                a.std = {n: float(sd[n]) for n in undetermined if n in sd}
-                a.determines = [n for n, v in a.std.items() if v < DETERMINED * abs(undetermined[n])]
-        ranking.append(a)
-    return _recorded_plan(diag, rungs, undetermined, recorded_std, noise, ranking, skipped, notes, radii,
-                          max_depth_mm, hold_s, speeds)
+        return _plan(diag, rungs, {}, None, noise, notes, radii, max_depth_mm, hold_s, speeds)
+    outlook = diag.outlook
+    defaults = radii is None and max_depth_mm is None and hold_s is None and not speeds
+    if not (defaults and outlook is not None and outlook.explanations == [f.model for f in rungs]
+            and (outlook.with_std or not undetermined)):  # else: the diagnosis' own outlook, as it ranked it
+        if any(f.bound_model is None for f in rungs):
+            raise ValueError("this diagnosis holds no fitted models (a batch's light copy): diagnose the curve "
+                             "again to plan other measurements")
+        outlook = rank(weigh(rungs, cur, [c for c, _ in curves], [n for _, n in curves],
+                             with_std=bool(undetermined), priors=diag.priors, mesh=diag.mesh,
+                             context=context_of(context), radii=radii, max_depth_mm=max_depth_mm, hold_s=hold_s,
+                             speeds=speeds, given=given), undetermined)
+    return _plan(diag, rungs, undetermined, outlook, noise, notes, radii, max_depth_mm, hold_s, speeds)
 
 
-def _rank(ranking: list, recorded_std: dict) -> list:
-    """Best first (module docstring); candidates not predicted last."""
-    def key(a):
-        sep = a.separation if a.separations else 0.0
-        return (a.error is None, sep if math.isfinite(sep) else -math.inf, len(a.determines), -a.score(recorded_std))
-
-    return sorted(ranking, key=key, reverse=True)
-
-
-def _recorded_plan(diag, rungs, undetermined, recorded_std, noise, ranking, skipped, notes, radii, max_depth_mm,
-                   hold_s, speeds) -> Plan:
+def _plan(diag, rungs, undetermined, outlook, noise, notes, radii, max_depth_mm, hold_s, speeds) -> Plan:
     settings = {"radii_mm": list(radii) if radii is not None else None, "max_depth_mm": max_depth_mm,
                 "hold_s": hold_s, "speeds_mm_per_s": list(speeds),
                 "diagnosis": dict(diag.provenance.get("settings", {})) if diag.provenance else None}
     prov = provenance(inputs=[data_identity(c) for c, _ in recorded(diag)], settings=settings, api="skin_indent.plan")
-    return Plan(diag, list(rungs), dict(undetermined), dict(recorded_std), float(noise), _rank(ranking, recorded_std),
-                dict(skipped), list(notes), prov)
+    return Plan(diag, list(rungs), dict(undetermined), float(noise), outlook,
+                [*notes, *(outlook.notes if outlook else ())], prov)
 
 
 def _check_reach(data, radii, max_depth_mm, options) -> None:

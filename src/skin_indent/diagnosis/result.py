@@ -22,6 +22,7 @@ from ..fitting.knowledge import DETERMINED_BY
 from ..fitting.rung import MODEL_ERROR, Rung
 from ..runtime.json_io import jsonable
 from .criteria import FROM_FE, FROM_FIT, STRONG
+from .segment_misfit import segments_sentence
 
 def _fmt_params(f: Rung, units: DisplayUnits) -> str:
     """A rung's parameters as the text of a diagnosis shows them, ``name = value +- sd``, in ``units``
@@ -117,13 +118,22 @@ class Diagnosis:
     steps: list = field(default_factory=list)
     alternatives: list = field(default_factory=list)
     n_given: int = 0
-    fitter: object = field(default=None, repr=False)
     explained: bool = False
     std_source: dict = field(default_factory=dict)
     not_determined: dict = field(default_factory=dict)
     untried: dict = field(default_factory=dict)
-    #: the finite-element predictions behind ``not_determined`` (:func:`~.identifiability.assess`)
-    predictions: list = field(default_factory=list, repr=False)
+    #: the next measurement (:class:`~.identifiability.Outlook`, plain data): every candidate measurement,
+    #: what it would separate and determine, ranked; what ``not_determined``, ``suggested_measurement`` and
+    #: :func:`~.planning.plan` read (None: nothing competes and nothing was left loose)
+    outlook: object = field(default=None, repr=False)
+    #: what the user knew: values held ``{name: value}`` and priors ``{name: (mean, sd)}``
+    fixed: dict = field(default_factory=dict)
+    priors: dict = field(default_factory=dict)
+    #: mesh family member of the finite-element runs
+    mesh: str = "coarse"
+    #: the response surfaces (and finite-element cores) the fits used, as a provenance records them
+    #: (:func:`skin_indent.runtime.provenance.surface_identity`)
+    surfaces: list = field(default_factory=list, repr=False)
     #: the candidate effects examined (None: every registered effect)
     candidates: tuple | None = None
     #: how the diagnosis was made (:func:`skin_indent.runtime.provenance.provenance`): the API call
@@ -160,8 +170,6 @@ class Diagnosis:
 
     def segments_sentence(self, units: DisplayUnits | None = None) -> str:
         """What the last rung leaves on each segment (``"approach explained; retract 12x the noise ..."``)."""
-        from .segment_misfit import segments_sentence
-
         return shown_in(segments_sentence(self.segments, self.joint), self.units if units is None else units) \
             if self.segments else ""
 
@@ -183,12 +191,6 @@ class Diagnosis:
         return self.ladder[0]
 
     @property
-    def surfaces(self) -> tuple:
-        """The response surfaces (and finite-element cores) the fits of the diagnosis used, as its
-        provenance records them (:func:`~skin_indent.runtime.provenance.surface_identity`)."""
-        return self.fitter.cores if self.fitter is not None else ()
-
-    @property
     def missing(self) -> tuple:
         """The effects the climb added to the given model."""
         return tuple(self.current.effects[self.n_given:])
@@ -205,15 +207,29 @@ class Diagnosis:
         times the value (or not finite), by the fit and, where finite-element runs are
         allowed, by the finite-element derivatives at the fitted values (they decide, and
         they are the standard deviation the last rung reports: ``std_source``); the reason
-        then says which other measurement (a larger or smaller sphere to the same depth, a
-        deeper indentation) would determine it and to what standard deviation, predicted
-        from the fitted model (:func:`~.identifiability.assess`; not made when the diagnosis
-        keeps to surfaces, ``in_loop=False``), or that none would. Also a fit parameter on a
+        then says which other measurement, fitted with this curve, would determine it and to
+        what standard deviation (the next measurement when it does; the numbers
+        :func:`~.planning.plan` shows, from the one engine :func:`~.identifiability.weigh`;
+        not computed when the diagnosis keeps to surfaces, ``in_loop=False``), or that none
+        would. Also a fit parameter on a
         face of its range, unless the face is a physical limit
         (:func:`~skin_indent.models.composed.at_physical_limit`: a rigid base, the nearly
         incompressible end of nu). Computed by :func:`~.workflow.diagnose`.
         """
         return dict(self.not_determined)
+
+    def next_measurement(self) -> dict | None:
+        """The next measurement as JSON-safe data (None: nothing competes and nothing was left loose, or
+        none could be predicted): the candidate ranked first by the engine (:attr:`outlook`), what it
+        would separate (``separation``, noise units) and the standard deviations of the undetermined
+        parameters when it is fitted with the recorded curve(s): what :func:`~.planning.plan` ranks first."""
+        a = self.outlook.next if self.outlook is not None else None
+        if a is None:
+            return None
+        c = a.candidate
+        return {"label": str(c.label), "kind": c.kind, "value": c.value, "radius_mm": c.radius_mm,
+                "max_depth_mm": c.max_depth_mm, "separation": a.separation if a.separations else None,
+                "std": {k: a.std[k] for k in self.not_determined if k in a.std}, "determines": list(a.determines)}
 
     def _tested(self) -> str:
         """``"of the vocabulary"``, or which effects were tested when the candidates were restricted."""
@@ -385,7 +401,7 @@ class Diagnosis:
                          f"{k['posterior_sd'] * c:.2g} ({DETERMINED_BY[k['determined_by']]})"
                          + (f"; IN TENSION with the data ({k['tension_sd']:.1f} combined sd apart)"
                             if k["in_tension"] else ""))
-        for name, v in (self.fitter.fixed.items() if self.fitter is not None else ()):
+        for name, v in self.fixed.items():
             if name in self.current.parameters:
                 lines.append(f"  what you know, {u.name(name)}: held at {v * u.factor(name):g}")
         fe = [u.name(k) for k, v in self.std_source.items() if v == FROM_FE]
@@ -477,8 +493,8 @@ class Diagnosis:
             "model_error": MODEL_ERROR,
             "n_effective": self.n_effective,
             **({} if self.joint else {"baseline_mN": self.data.baseline_mN, "contact_point_mm": float(contact)}),
-            "fixed": dict(self.fitter.fixed) if self.fitter is not None else {},
-            "priors": ({k: list(v) for k, v in self.fitter.priors.items()} if self.fitter is not None else {}),
+            "fixed": dict(self.fixed),
+            "priors": {k: list(v) for k, v in self.priors.items()},
             "base": rung(base),
             "current": rung(cur),
             "explained": self.explained,
@@ -505,6 +521,7 @@ class Diagnosis:
             "untried_reasons": dict(self.untried),
             "confounded_with": list(self.confounded_with),
             "suggested_measurement": self.suggested_measurement,
+            "next_measurement": self.next_measurement(),
             "sentence": self.sentence(PACKAGE_UNITS),
             "ladder": [rung(f) for f in self.ladder],
             "final_model": bodies(cur),

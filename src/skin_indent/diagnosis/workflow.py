@@ -64,13 +64,11 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import re
 
 from ..effects import BASE_PARAMETERS, EFFECTS, WEIGHED, effect, instances, numbered
 from ..effects.repeat import addable
 from ..measurement import SEGMENTS, CurveSet
-from ..measurement.scale import Name, Quantity, UnitText
 from .evidence import suggest_measurement
 from ..fitting.model_fit import curve_noise, is_several, prepare_curve, prepare_sample, sample_noise
 from ..fitting.scale_checks import check_scale, contact_points, points_flags
@@ -78,10 +76,8 @@ from ..fitting.surfaces import EFFECT_NU
 from ..measurement.scale import afm_scale
 from ..fitting.surfaces import interpolation_flags
 from ..fitting.multistart import Fitter
-from ..fitting.rung import Rung
-from ..models.composed import at_physical_limit
 from ..models.joint import split_name
-from .identifiability import ALTERNATIVES, DETERMINED, RECORDED, assess, suggestion
+from .identifiability import determine, explanations, loose, weigh
 from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RIVAL, STRONG, Scores, effective_size,
                        explained,
                        settled, unmoved)
@@ -89,7 +85,7 @@ from .result import Diagnosis, Step
 from .instrument import at_physical_range, examine_instrument
 from .segment_misfit import segment_misfits
 from ..runtime.context import context_of
-from ..runtime.provenance import records_call
+from ..runtime.provenance import records_call, surface_identity
 
 log = logging.getLogger(__name__)
 
@@ -200,54 +196,6 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
                            f"the climb stopped at max_rungs = {max_rungs} before examining "
                            f"{'+'.join(unexamined) or 'the given model'}")
     return out
-
-
-def determine(fitter: Fitter, rung: Rung) -> tuple[dict, dict, dict, list]:
-    """What the curve determines of a fitted rung (:meth:`Diagnosis.undetermined` of the last one).
-
-    Finite-element runs (:func:`~.identifiability.assess`) are made when ``fitter.in_loop`` allows
-    them and a parameter is loose by the fit's own standard deviation; :func:`diagnose` calls this
-    once, for the last rung.
-
-    Returns
-    -------
-    std : dict
-        The rung's standard deviations, those of the parameters the fit leaves loose replaced
-        by the finite-element ones where these were computed (they decide).
-    std_source : dict
-        ``{name: FROM_FIT or FROM_FE}``.
-    reasons : dict
-        ``{name: why not determined}``: :class:`~skin_indent.measurement.scale.UnitText`, in the
-        package units as a ``str``, in any units with :func:`~skin_indent.measurement.scale.shown_in`.
-    predictions : list of Prediction
-        The alternative measurements' predicted standard deviations (:func:`~.identifiability.assess`;
-        empty when no finite-element run was allowed or needed).
-    """
-    std = dict(rung.std)
-    source = {k: FROM_FIT for k in std}
-    loose = [k for k, v in rung.parameters.items()  # a value held (fitter.fixed) is known, not determined
-             if k not in fitter.fixed and math.isfinite(v) and not std.get(k, math.nan) <= DETERMINED * abs(v)]
-    predictions = []
-    if loose and fitter.in_loop and rung.bound_model is not None and rung.x is not None:
-        log.info("what the curve determines of %s: %s loose; finite-element sensitivities of %d measurements",
-                 rung.model, ", ".join(loose), 1 + len(ALTERNATIVES))
-        predictions = assess(fitter, rung, (RECORDED, *ALTERNATIVES))
-        recorded = predictions.pop(0).std
-        if recorded:  # the finite-element derivatives decide (a surface's slopes can inflate an sd)
-            for k in loose:
-                if k in recorded:
-                    std[k], source[k] = float(recorded[k]), FROM_FE
-            loose = [k for k in loose if not std[k] <= DETERMINED * abs(rung.parameters[k])]
-    reasons = {k: UnitText("{name} = {value:.3g} +- {sd:.2g}: not determined by this curve{how}", name=Name(k),
-                           value=Quantity(rung.parameters[k], k), sd=Quantity(std.get(k, math.nan), k),
-                           how=suggestion(k, rung.parameters[k], predictions)) for k in loose}
-    for k in rung.at_bounds:
-        if at_physical_limit(rung.bound_model, rung.x, k):
-            continue
-        reasons.setdefault(k, UnitText("{name} = {value:.4g} at the edge of its range: refitted from other starts and "
-                                       "still there", name=Name(k), value=Quantity(rung.fit_parameters.get(k, math.nan),
-                                                                                   k)))
-    return std, source, reasons, predictions
 
 
 @records_call("skin_indent.diagnose", data="measurement",
@@ -445,10 +393,8 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         verdict = "ambiguous" if close else "+".join(missing)
     if rival_sets:
         confounded = ["+".join(ladder[-1].effects[len(add):])] + ["+".join(f.effects[len(add):]) for f in rival_sets]
-        suggestion = suggest_measurement(fitter, ladder[-1], rival_sets[0])
     elif first.rivals and not missing:
         confounded = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
-        suggestion = suggest_measurement(fitter, first.ranking[0], first.rivals[0])
     is_explained = explained(ladder[-1], fitter)
     if verdict == "none" and not is_explained:
         verdict = "unexplained"  # nothing fitted helps, and the model does not explain the curve
@@ -460,9 +406,22 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         unexamined = key
     untried = _untried(fitter, examined, unexamined, candidates, max_rungs)
 
-    # the last rung's standard deviations, as they decide what the curve determines (finite-element
-    # derivatives where the fit leaves a parameter loose): its one set of numbers everywhere
-    std, std_source, not_determined, predictions = determine(fitter, final)
+    # the one engine of the next measurement (identifiability.weigh): what the candidates would separate
+    # and, where the fit leaves a parameter loose, determine; the last rung's standard deviations, as they
+    # decide what the curve determines (finite-element derivatives of the recorded curve): one set of numbers
+    rungs = explanations(final, bool(missing), rival_sets, first)
+    with_std = (bool(loose(final, fitter.fixed)) and fitter.in_loop and final.bound_model is not None
+                and final.x is not None)
+    outlook = None
+    if len(rungs) > 1 or with_std:
+        try:
+            outlook = weigh(rungs, final, fitter.curves, fitter.noises_mN, with_std=with_std, priors=fitter.priors,
+                            mesh=fitter.mesh, context=fitter.context)
+        except ValueError as err:  # no measurement can be predicted (too few points in contact)
+            notes.append(f"no other measurement predicted: {err}")
+    std, std_source, not_determined, _ = determine(final, fitter.fixed, outlook)
+    if len(rungs) > 1:
+        suggestion = suggest_measurement(outlook)
     # fewer points in contact than the last rung's parameters need to be judged (5 each): said in a note
     notes += points_flags(contact_points(data), final.n_free)
     notes += interpolation_flags(final.bound_model, final.x)  # the last rung's surface, where it is not exact
@@ -486,9 +445,11 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
             verdict = "unexplained"
     return Diagnosis(data, sigma, source, data.radius_mm, [one(f) for f in ladder], steps[0].ranking,
                      first.not_detectable, verdict, confounded, suggestion, n_eff, notes, steps=steps,
-                     alternatives=[one(f) for f in alternatives], n_given=len(add), fitter=fitter,
+                     alternatives=[one(f) for f in alternatives], n_given=len(add),
                      explained=is_explained, std_source=std_source, not_determined=not_determined,
-                     untried=untried, predictions=predictions, candidates=all_candidates, curves=list(curves),
+                     untried=untried, outlook=outlook, fixed=dict(fitter.fixed), priors=dict(fitter.priors),
+                     mesh=fitter.mesh, surfaces=surface_identity(list(fitter.cores)), candidates=all_candidates,
+                     curves=list(curves),
                      noises_mN=list(sigmas), noise_sources=list(sources), instrument=instrument,
                      instrument_steps=instrument_steps, segments=segments_left, n_user=len(given))
 

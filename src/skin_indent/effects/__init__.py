@@ -46,7 +46,7 @@ from .base import BASE_PARAMETERS, DEPTH, ELASTIC, FORCE, HISTORY, STAGE_ORDER, 
 from .drag import Drag
 from .friction import Friction
 from .layer import Layer
-from .model import Model
+from .model import BASE_MODEL, Model, model_name, parse_effects
 from .offset import Offset
 from .powerlaw import PowerLaw
 from .registry import EFFECTS, effect, register, unregister
@@ -67,5 +67,5 @@ del _e
 INSTRUMENT = tuple(n for n, e in EFFECTS.items() if e.instrument)
 
 __all__ = ["ADHESION_RANGE_MM", "INSTRUMENT", "Drag", "SegmentBaseline", "BASE_PARAMETERS", "CONTACT_POINT", "DEPTH", "STAGE_ORDER", "EFFECTS", "ELASTIC", "FORCE", "HISTORY", "WEIGHED",
-           "Adhesion", "Effect", "EffectAxis", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset",
+           "Adhesion", "Effect", "EffectAxis", "EffectParameter", "Evaluation", "ForwardSpec", "Friction", "Layer", "Model", "Offset", "BASE_MODEL", "model_name", "parse_effects",
            "Repeat", "Stiffening", "Viscoelastic", "effect", "instances", "numbered", "register", "unregister"]

@@ -9,13 +9,16 @@ against what refitting E and nu absorbs.
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .base import WEIGHED, Effect, EffectParameter, ForwardSpec
 from ..measurement.scale import Quantity, UnitText
-from ..protocol import Protocol
+from ..mechanics.protocol import Protocol
 from ..response_surface import default_cache_dir
 from ..response_surface import default_settings
 from ..runtime.atomic import atomic_write
@@ -46,10 +49,6 @@ def full_stick_ratio(nu: float, depth_mm: float, radius_mm: float,
     """
     if cache_dir is None:
         return _full_stick_runs(nu, depth_mm, radius_mm)
-    import hashlib
-    import json
-    import zipfile
-
     key = json.dumps({"check": "full-stick ratio", "nu": nu, "depth_mm": depth_mm, "radius_mm": radius_mm,
                       "code_version": default_settings(radius_mm, "coarse")["code_version"]}, sort_keys=True)
     path = Path(cache_dir) / "checks" / f"{hashlib.sha256(key.encode()).hexdigest()[:24]}.npz"

@@ -46,7 +46,7 @@ and a cut :math:`t_c` = :data:`CUT_S` = 10 us that makes the instantaneous modul
 (beta < 1); the cut lowers the force at time t by a fraction of about :math:`(t_c/t)^{1-\beta}`
 (the part of the kernel's integral it removes): 4e-5 at beta = 0.3 after 30 s, 5e-4 after 0.5 s,
 2.5e-3 at beta = 0.6 after 30 s (tested against Ting's closed form with the Beta function,
-:func:`~skin_indent.analytic.ting_power_law_force`, in ``tests/test_hereditary.py``).
+:func:`~skin_indent.mechanics.analytic.ting_power_law_force`, in ``tests/test_hereditary.py``).
 The finite-element model relaxes with a Prony series fitted to the
 same kernel (:func:`~skin_indent.mechanics.materials.viscoelastic.power_law_prony`).
 """

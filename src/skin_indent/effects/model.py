@@ -4,9 +4,48 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .base import BASE_PARAMETERS, EffectParameter, ForwardSpec
+from .base import WEIGHED, BASE_PARAMETERS, EffectParameter, ForwardSpec
 from .registry import effect as _effect
 from .repeat import check_kinds, instances
+
+#: the base law every model starts from
+BASE_MODEL = "neo-hooke"
+
+
+def model_name(effects) -> str:
+    """The name of the model of ``effects`` (names or :class:`~.base.Effect`), as every output spells it:
+    ``("layer", "layer")`` -> ``"neo-hooke+layer+layer"``."""
+    return BASE_MODEL + "".join(f"+{getattr(e, 'name', e)}" for e in effects)
+
+
+def parse_effects(model) -> tuple[str, ...]:
+    """The effects of a model name: ``"neo-hooke+layer+layer"`` -> ``("layer", "layer")``.
+
+    A sequence of effect names (or a :class:`Model`) is taken as it is. One-line ``ValueError`` for
+    a model that does not start with the base law, an unknown effect, an effect given twice that
+    cannot repeat, or one that is weighed rather than fitted (friction).
+
+    Examples
+    --------
+    >>> parse_effects("neo-hooke+layer+layer")
+    ('layer', 'layer')
+    """
+    if isinstance(model, Model):
+        parts = list(model.effects)
+    elif isinstance(model, str):
+        parts = [p.strip() for p in model.split("+")]
+        if parts[0] != BASE_MODEL:
+            raise ValueError(f"a model starts with {BASE_MODEL} (the base law), e.g. {BASE_MODEL}+layer; "
+                             f"got {model!r}")
+        parts = parts[1:]
+    else:
+        parts = list(model)
+    names = tuple(_effect(p).name for p in parts)
+    instances(names)  # an effect given twice that cannot repeat: one line
+    weighed = [n for n in names if _effect(n).stage == WEIGHED]
+    if weighed:
+        raise ValueError(f"{', '.join(weighed)} is weighed, not fitted: no fitted model has it yet")
+    return names
 
 
 @dataclass(frozen=True)
@@ -27,6 +66,8 @@ class Model:
     >>> m = Model(("layer",))
     >>> m.parameter_names
     ('E_kPa', 'nu', 'thickness_mm', 'ratio')
+    >>> (Model.parse("neo-hooke+layer") + "viscoelastic").name
+    'neo-hooke+layer+viscoelastic'
     """
 
     effects: tuple = ()
@@ -40,13 +81,28 @@ class Model:
         object.__setattr__(self, "effects", names)
         SphericalIndenter(self.radius_mm)
 
+    @classmethod
+    def parse(cls, model, radius_mm: float = 6.22) -> "Model":
+        """The fitted model of a name (``"neo-hooke+layer+layer"``), a sequence of effect names or a
+        :class:`Model` (:func:`parse_effects`: what a fit takes), for a sphere of ``radius_mm`` (mm)."""
+        return cls(parse_effects(model), radius_mm)
+
+    def __add__(self, other) -> "Model":
+        """This model with more effects: ``model + "layer"``, ``model + ("layer", "adhesion")`` or
+        ``model + other_model`` (its effects), as lmfit's ``+`` composes models."""
+        more = other.effects if isinstance(other, Model) else (other,) if isinstance(other, str) else tuple(other)
+        return Model(self.effects + tuple(_effect(e).name for e in more), self.radius_mm)
+
+    def __str__(self) -> str:
+        return self.name
+
     @property
     def effect_objects(self) -> tuple:
         return instances(self.effects)
 
     @property
     def name(self) -> str:
-        return "neo-hooke" + "".join(f"+{e}" for e in self.effects)
+        return model_name(self.effects)
 
     @property
     def parameters(self) -> tuple[EffectParameter, ...]:
@@ -59,9 +115,6 @@ class Model:
     @property
     def needs_history(self) -> bool:
         return any(e.needs_history for e in self.effect_objects)
-
-    def with_effect(self, name) -> "Model":
-        return Model(self.effects + (_effect(name).name,), self.radius_mm)
 
     def check(self, theta: dict) -> dict:
         """Complete ``theta`` with off values and check every parameter against its range."""

@@ -14,7 +14,7 @@ modulus is finite (see :mod:`skin_indent.effects.hereditary`).
 
 Fitted: the Lee-Radok / Ting hereditary integral over the elastic force
 (:mod:`skin_indent.effects.hereditary`), exact at small strain (Ting's closed form with the Beta
-function, :func:`~skin_indent.analytic.ting_power_law_force`) and the QLV approximation at large
+function, :func:`~skin_indent.mechanics.analytic.ting_power_law_force`) and the QLV approximation at large
 strain: no extra finite-element runs. Forward: every material relaxes with a Prony series fitted
 to the kernel over [0, 1e4 s] (:func:`~skin_indent.mechanics.materials.viscoelastic.power_law_prony`,
 21 terms, within 2.4e-4 of the kernel at beta = 0.3), and the instantaneous modulus is psi(0) E.

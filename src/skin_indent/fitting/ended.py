@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..measurement.scale import Name, Quantity, UnitText
+from ..models.composed import at_physical_limit, declared_parameters
 
 __all__ = ["BUDGET", "BOUND", "EDGE", "START", "Ending", "ending_flags", "how_it_ended", "moved", "reported_name",
            "reported_message", "stalled", "verdict"]
@@ -170,8 +171,6 @@ def _switched_off(model, x, name: str, shown: str) -> bool:
     end of the declared range of ``shown`` (the parameter results report): ``C20_kPa`` = 0, no
     stiffening; ``w_mJ_per_m2`` = 0, no adhesion. The fit found the effect absent: an answer, not a
     stop short of one. Judged at the face itself (the optimizer stops a hair inside it)."""
-    from ..models.composed import declared_parameters
-
     if model is None or x is None or not hasattr(model, "effects") or name not in model.parameter_names:
         return False
     p = declared_parameters(model).get(shown)
@@ -202,7 +201,7 @@ def _core_of(model, name: str):
 
 def _edge_of(core) -> str:
     """What a core's range is: a surface's nodes, or what the finite-element model solves."""
-    if getattr(core, "in_loop", False) or hasattr(core, "prefetch"):
+    if core.in_loop:
         return "what the finite-element model solves"
     label = getattr(core, "name", None)
     what = f"the {label} response surface" if isinstance(label, str) and label else "the response surface"
@@ -245,8 +244,6 @@ def how_it_ended(result, model=None, x=None, *, limits: bool = True) -> list[End
     list of Ending
         In the order budget, start values, then each parameter at an edge or a bound.
     """
-    from ..models.composed import at_physical_limit
-
     info = result.info or {}
     if model is not None and x is None:
         x = np.array([result.parameters[n] for n in model.parameter_names], dtype=float)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analytic import hertz_force
+from ..mechanics.analytic import hertz_force
 from .. import inverse
 from ..measurement import MeasurementError
 from .surfaces import check_inside

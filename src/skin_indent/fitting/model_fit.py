@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ..effects import CONTACT_POINT, WEIGHED, effect, instances
+from ..effects import CONTACT_POINT, parse_effects
 from ..measurement import SEGMENTS, CurveSet, MeasurementError, PreparedCurve, prepare
 from .curve import CurveFit, quality, with_scale_flags
 from .error_model import NOISE_POINTS, curve_noise, per_curve, sample_noise  # noqa: F401 - the diagnosis reads them here
@@ -35,35 +35,11 @@ from ..runtime.provenance import surface_identity
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
 MAX_POINTS = NOISE_POINTS  # the noise rule estimates on at most as many (error_model)
-#: the base law every model starts from
-BASE_MODEL = "neo-hooke"
 
 
 def parse_model(model) -> tuple[str, ...]:
-    """The effects of a model name: ``"neo-hooke+layer+layer"`` -> ``("layer", "layer")``.
-
-    A sequence of effect names is taken as it is. One-line ``ValueError`` for a model that
-    does not start with the base law, an unknown effect, an effect given twice that cannot
-    repeat, or one that is weighed rather than fitted (friction).
-    """
-    if isinstance(model, str):
-        parts = [p.strip() for p in model.split("+")]
-        if parts[0] != BASE_MODEL:
-            raise ValueError(f"a model starts with {BASE_MODEL} (the base law), e.g. {BASE_MODEL}+layer; "
-                             f"got {model!r}")
-        parts = parts[1:]
-    else:
-        parts = list(model)
-    names = tuple(effect(p).name for p in parts)
-    instances(names)  # an effect given twice that cannot repeat: one line
-    weighed = [n for n in names if effect(n).stage == WEIGHED]
-    if weighed:
-        raise ValueError(f"{', '.join(weighed)} is weighed, not fitted: no fitted model has it yet")
-    return names
-
-
-def model_name(effects) -> str:
-    return BASE_MODEL + "".join(f"+{e}" for e in effects)
+    """The effects of a fitted model (:func:`skin_indent.effects.parse_effects`, the one parser)."""
+    return parse_effects(model)
 
 
 def prepare_curve(data, *, radius_mm: float | None = None, segments=SEGMENTS) -> PreparedCurve:

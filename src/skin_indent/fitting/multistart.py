@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, Model, instances
+from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, Model, instances, model_name
 from ..inverse import IdentificationResult
 from ..inverse import fit_least_squares
 from ..inverse.residuals import analyse_residuals
@@ -200,7 +200,7 @@ class Fitter:
         names = Model(full, float(self.data.radius_mm)).parameter_names
         if any(k not in names for k in self.fixed):
             return
-        check_points(self.data, len(names) - len(self.fixed), model="neo-hooke" + "".join(f"+{e}" for e in full))
+        check_points(self.data, len(names) - len(self.fixed), model=model_name(full))
 
     def core(self, effects, k: int = 0):
         """The elastic force model of these effects for curve ``k`` (cached per set of elastic effects
@@ -299,13 +299,13 @@ class Fitter:
             except ValueError as err:
                 done[key] = err
                 continue
-            looped = tuple(id(c) for c in cores if hasattr(c, "in_workers"))
+            looped = tuple(id(c) for c in cores if c.in_loop)
             if looped:
                 groups.setdefault(looped, []).append(key)
             else:
                 done.update(attempt([key]))
         if len(groups) > 1:
-            cores = [c for group in groups.values() for c in self.model(group[0]).cores if hasattr(c, "in_workers")]
+            cores = [c for group in groups.values() for c in self.model(group[0]).cores if c.in_loop]
             with contextlib.ExitStack() as stack:
                 for core in cores:
                     stack.enter_context(core.in_workers())
@@ -453,7 +453,7 @@ class Fitter:
         base.update(parameters=params, std=std, chi2=chi2, message=reported_message(best, model, x),
                     **scored(chi2, r * (self.noise_mN / s), best.n_free))
         ended = tuple(how_it_ended(best, model, x))
-        rung = Rung(**base, model="neo-hooke" + "".join(f"+{e}" for e in key), effects=key,
+        rung = Rung(**base, model=model_name(key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=chi2, white=bool(analysis is not None and analysis.white), analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,

@@ -4,6 +4,10 @@ solid, sphere contact, incremental Newton solver and field output.
 Reading order: :mod:`.mesh` -> :mod:`.materials` -> :mod:`.weakform` (the maths in
 scikit-fem forms) -> :mod:`.axisymmetric` (the same, fast) -> :mod:`.contact` ->
 :mod:`.predictor` / :mod:`.linear` -> :mod:`.solver` -> :mod:`.fields`.
+
+Beside them: :mod:`.protocol`, the depth history of a test against time, and
+:mod:`.analytic`, the closed-form solutions the forward model is checked against (Hertz,
+Sneddon, Ting, Dimitriadis).
 """
 
 # Exports are loaded on first use: the materials and the sphere need no scikit-fem, so a

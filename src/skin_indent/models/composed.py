@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import contextlib
 import math
 
 import numpy as np
 
 from ..effects import DEPTH, ELASTIC, STAGE_ORDER, WEIGHED, Evaluation, instances
 from ..effects.base import stack_parameters
-from ..effects import BASE_PARAMETERS
+from ..effects import BASE_PARAMETERS, model_name
 
 
 class ComposedModel:
@@ -58,7 +57,7 @@ class ComposedModel:
 
     @property
     def name(self) -> str:
-        return "neo-hooke" + "".join(f"+{e.name}" for e in self.effects)
+        return model_name(self.effects)
 
     def _check_depth(self, depth_mm):
         d = np.asarray(depth_mm, dtype=float)
@@ -101,8 +100,7 @@ class ComposedModel:
     def iterating(self):
         """Context of a fit's iterations: the core's (:meth:`~skin_indent.models.fe_core.FECore.iterating`:
         secant updates of differenced columns), or nothing for a surface."""
-        enter = getattr(self.core, "iterating", None)
-        return enter() if callable(enter) else contextlib.nullcontext()
+        return self.core.iterating()
 
     def jacobian(self, depth_mm, theta, columns=None) -> np.ndarray:
         """dF/dtheta: central differences of relative step 1e-5 (one-sided at the box faces),
@@ -171,19 +169,16 @@ class ComposedModel:
     def in_loop(self) -> bool:
         """The core is the finite-element model in the loop (a
         :class:`~skin_indent.models.fe_core.FECore`), not a response surface."""
-        return hasattr(self.core, "prefetch")
+        return self.core.in_loop
 
     def screening(self):
         """Context of cheap runs that only rank start vectors (:meth:`~skin_indent.models.fe_core.FECore.screening`),
         or nothing for a surface."""
-        enter = getattr(self.core, "screening", None)
-        return enter() if callable(enter) else contextlib.nullcontext()
+        return self.core.screening()
 
     def prefetch(self, xs) -> None:
         """Make the finite-element runs of several fit vectors at once (nothing for a surface)."""
-        fetch = getattr(self.core, "prefetch", None)
-        if callable(fetch):
-            fetch([np.asarray(x, dtype=float)[: self._n_core] for x in xs])
+        self.core.prefetch([np.asarray(x, dtype=float)[: self._n_core] for x in xs])
 
 
 def reported_parameters(model, x, cov) -> tuple[dict, dict]:

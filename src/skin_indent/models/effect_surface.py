@@ -32,10 +32,10 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..response_surface import SurfaceGrid, default_cache_dir, default_settings, default_unit_curve
+from ..response_surface import SurfaceCore, SurfaceGrid, default_cache_dir, default_settings, default_unit_curve
 from ..runtime.executors import Executor
 from ..effects import ELASTIC, EffectAxis, effect
-from ..effects import Model
+from ..effects import Model, model_name
 from ..response_surface import NodeForces, ResponseSurface
 from ..response_surface import RunStore
 from ..response_surface import Job, expected_code_of, make_runs, resolve_model, run_key
@@ -72,7 +72,7 @@ def model_unit_curve(nu: float, depth_mm, *, effects: tuple, parameters: tuple, 
     return Model(tuple(effects), radius_mm).simulate(theta, np.asarray(depth_mm, float), mesh=mesh).force_mN
 
 
-class EffectSurface:
+class EffectSurface(SurfaceCore):
     """Force ``F(h; E_kPa, nu, effect parameters...)`` (mN), interpolated from cached FE runs.
 
     Implements the force-model protocol of :mod:`skin_indent.inverse`
@@ -116,7 +116,7 @@ class EffectSurface:
 
     @property
     def name(self) -> str:
-        return "neo-hooke" + "".join(f"+{e}" for e in self.effects)
+        return model_name(self.effects)
 
     # ------------------------------------------------------------------ build
     @classmethod
@@ -154,7 +154,7 @@ class EffectSurface:
             unit = tuple((a.name, float(a.nodes[i])) for a, i in zip(axes, idx))
             params = tuple(sorted(model_parameters(effects, dict(unit)).items()))
             settings = {**default_settings(radius_mm=radius_mm, mesh=mesh),
-                        "model": "neo-hooke" + "".join(f"+{e}" for e in effects),
+                        "model": model_name(effects),
                         "unit_curve": "skin_indent.models.effect_surface.model_unit_curve",
                         "unit_parameters": [[k, repr(v)] for k, v in params]}
             curve = functools.partial(model_unit_curve, effects=effects, parameters=params,

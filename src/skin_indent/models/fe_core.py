@@ -65,7 +65,7 @@ import weakref
 
 import numpy as np
 
-from ..effects import ELASTIC, ForwardSpec, instances
+from ..effects import ELASTIC, ForwardSpec, instances, model_name
 from ..response_surface import RunFailed, nice_depth
 from ..response_surface.run_cache import module_digest
 from ..effects.base import stack_parameters
@@ -146,6 +146,9 @@ class FECore:
         them solved here, ``cached`` read; ``run_time_s`` the wall time of both.
     """
 
+    #: the runs are made during the fit (the protocol of :class:`~skin_indent.models.core.ElasticCore`)
+    in_loop = True
+
     def __init__(self, effects, *, radius_mm: float, max_depth_mm: float, e_star_kPa: float, mesh: str = "coarse",
                  workers: int | None = None, run_cache=None):
 
@@ -179,7 +182,7 @@ class FECore:
 
     @property
     def name(self) -> str:
-        return "finite elements in the loop: neo-hooke" + "".join(f"+{e.name}" for e in self.effects)
+        return "finite elements in the loop: " + model_name(self.effects)
 
     # ----------------------------------------------------------------- parameters
     def spec(self, rest) -> ForwardSpec:

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analytic import hertz_force
+from ..mechanics.analytic import hertz_force
+from ..response_surface import SurfaceCore
 
 
-class HertzModel:
+class HertzModel(SurfaceCore):
     """Hertz's sphere F = 4/3 E* sqrt(R) h^1.5 as a force model of E* (kPa).
 
     Parameters

@@ -87,7 +87,7 @@ class JointModel:
         names, lo, hi = [], [], []
         self._index = []
         for k, part in enumerate(self.parts):
-            own = {n for e in part.effects if getattr(e, "per_curve", False) for n in e.fit_names}
+            own = {n for e in part.effects if e.per_curve for n in e.fit_names}
             idx = []
             for i, n in enumerate(part.parameter_names):
                 joint = curve_name(n, k) if n in own else n
@@ -129,7 +129,7 @@ class JointModel:
     @property
     def in_loop(self) -> bool:
         """Some curve is fitted with the finite-element model in the loop."""
-        return any(hasattr(c, "prefetch") for c in self.cores)
+        return any(c.in_loop for c in self.cores)
 
     def part(self, k: int, x) -> tuple:
         """``(ComposedModel, its fit vector)`` of curve ``k`` (0-based) at the joint vector ``x``."""
@@ -149,7 +149,7 @@ class JointModel:
     def _each(self, fn):
         """``[fn(k, part)]`` over the curves: side by side (threads, each curve's runs in worker
         processes) when more than one curve is fitted with finite elements in the loop."""
-        looped = [k for k, p in enumerate(self.parts) if any(hasattr(c, "prefetch") for c in p.cores)]
+        looped = [k for k, p in enumerate(self.parts) if p.in_loop]
         if len(looped) < 2:
             return [fn(k, p) for k, p in enumerate(self.parts)]
         with contextlib.ExitStack() as stack:
@@ -163,9 +163,7 @@ class JointModel:
         """Start the worker processes of every curve's finite-element core now, from the calling
         (main) thread, before threads that make runs in them start."""
         for c in self.cores:
-            start = getattr(c, "start_workers", None)
-            if callable(start):
-                start()
+            c.start_workers()
 
     def evaluate(self, theta) -> JointEvaluation:
         """Every curve's stages at ``theta``: the indentation below each curve's contact point and
@@ -221,7 +219,7 @@ class JointModel:
         out, own = {}, {}
         for k, p in enumerate(self.parts):
             values = p.model_parameters(x[self._index[k]])
-            mine = {n for e in p.effects if getattr(e, "per_curve", False) for n in e.parameter_names}
+            mine = {n for e in p.effects if e.per_curve for n in e.parameter_names}
             for n, v in values.items():
                 if n in mine:
                     own[curve_name(n, k)] = v

@@ -16,6 +16,7 @@ keeps its colour in every figure (:func:`verdict_colours`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -395,8 +396,6 @@ def write_curve_report(row, plot_dir, provenance: dict | None = None):
     DiagnosisRow
         The row, with a flag ``report not written: ...`` when writing failed (never raised).
     """
-    import dataclasses
-
     if row.diagnosis is None or row.error:
         return row
     try:

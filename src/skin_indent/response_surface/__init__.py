@@ -83,6 +83,7 @@ from ._grid import NICE_DEPTHS, SurfaceGrid, nice_depth, parse_range
 from ._runs import Job, make_runs
 from ._store import RunStore
 from .run_cache import RunCache, RunFailed
+from ._core import SurfaceCore
 from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, NodeForces, ResponseSurface
 
 __all__ = [
@@ -90,6 +91,7 @@ __all__ = [
     "NICE_DEPTHS", "nice_depth",
     "SurfaceGrid",
     "ResponseSurface",
+    "SurfaceCore",
     "NodeForces",
     "parse_range",
     "default_settings",

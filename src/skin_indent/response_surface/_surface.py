@@ -15,6 +15,7 @@ import numpy as np
 from ._cache import (UnitCurve, atomic_savez, canonical_json, expected_code_of, resolve_model, run_key,
                      default_cache_dir, settings_hash)
 from ..runtime.executors import Executor, import_distributed
+from ._core import SurfaceCore
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
 from ._runs import Job, choose_executor, make_runs
@@ -45,7 +46,7 @@ def _describe(settings, grid) -> str:
             f"({grid.nu.size} nu x {grid.depth_mm.size} depths)")
 
 
-class ResponseSurface:
+class ResponseSurface(SurfaceCore):
     """Force F(h; E, nu) (mN) on a grid, interpolated with analytic parameter gradients.
 
     Implements the model protocol of :mod:`skin_indent.inverse`: ``parameter_names``,

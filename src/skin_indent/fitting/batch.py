@@ -9,8 +9,9 @@ works on one core, with one BLAS thread). A file that cannot be read, or a curve
 fitted, is one :class:`BatchRow` with its one-line ``error``: never the end of the batch (the
 files and curves are read by :mod:`skin_indent.measurement.curve_files`).
 
-:func:`write_tsv` writes the rows as a table (one line per curve, a provenance header),
-:func:`summary_figure` a figure of E per curve and, for force maps, E over the map.
+:func:`skin_indent.report.batch_table.write_tsv` writes the rows as a table (one line per curve,
+a provenance header), :func:`skin_indent.report.batch_table.summary_figure` a figure of E per
+curve and, for force maps, E over the map.
 
 Surfaces
 --------
@@ -31,22 +32,17 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
-from .fitting import fit
-from .fitting import surface_for
-from .fitting.model_fit import parse_model, prepare_curve
-from .fitting.one_fit import paper_identification, paper_needed
-from .fitting.surfaces import SIMILARITY_RATIOS
-from .measurement import prepare
-from .measurement.curve_files import READABLE_SUFFIXES, CurveLocation, expand_paths, read_curves
-from .report.batch_table import summary_figure, write_tsv
-from .report.fit_figure import plot_fit, write_fit_csv
-from .runtime.batch import BatchRows, one_line, row_provenance, run_tasks
-from .runtime.context import context_of
-from .runtime.json_io import jsonable
-from .runtime.provenance import provenance as make_provenance
+from .one_fit import fit, paper_identification, paper_needed
+from .model_fit import parse_model, prepare_curve
+from .surfaces import SIMILARITY_RATIOS, surface_for
+from ..measurement import prepare
+from ..measurement.curve_files import READABLE_SUFFIXES, CurveLocation, expand_paths, read_curves
+from ..runtime.batch import BatchRows, one_line, row_provenance, run_tasks
+from ..runtime.context import context_of
+from ..runtime.json_io import jsonable
+from ..runtime.provenance import provenance as make_provenance
 
-__all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expand_paths", "fit_many",
-           "summary_figure", "write_tsv"]
+__all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expand_paths", "fit_many"]
 
 log = logging.getLogger(__name__)
 
@@ -147,7 +143,7 @@ class BatchRow(CurveLocation):
         return jsonable(out)
 
 
-#: the columns of :func:`write_tsv`, in order (then ``NAME``, ``NAME_sd`` for each parameter of the
+#: the columns of :func:`~skin_indent.report.batch_table.write_tsv`, in order (then ``NAME``, ``NAME_sd`` for each parameter of the
 #: models beyond E_kPa and nu)
 TSV_COLUMNS = tuple(f.name for f in fields(BatchRow) if f.name not in ("fit", "parameters", "std"))
 
@@ -306,6 +302,7 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
 
     Examples
     --------
+    >>> from skin_indent.report.batch_table import write_tsv
     >>> from skin_indent.runtime.context import Context
     >>> rows = fit_many("curves/", radius_mm=0.02, context=Context(workers=2))  # doctest: +SKIP
     >>> write_tsv(rows, "results.tsv")                                           # doctest: +SKIP
@@ -426,6 +423,8 @@ def _fields(row: BatchRow) -> dict:
 
 def _write_plots(row: BatchRow, result, plot_dir, prov) -> BatchRow:
     """The plot and CSV of one fit; a failure to write becomes a flag of the row, not an error."""
+    from ..report.fit_figure import plot_fit, write_fit_csv  # the report's drawing (matplotlib), only when asked
+
     name = row.plot_name
     one = row_provenance(prov, row)
     try:
