@@ -174,7 +174,9 @@ class _Rung:
     chi2_weighted: float
     n_parameters: int
     moved: bool = True
+    aic: float = math.nan
     bic: float = math.nan
+    n_eff: float = math.nan
 
     @property
     def model(self):

@@ -142,8 +142,8 @@ def test_the_reduced_chi_square_tells_a_curve_the_model_misses(hidden, cache, co
     assert 0.6 < clean.redchi < 1.5
     missing = fit(hidden["v02_layer_soft_base"], model="neo-hooke", noise_mN=NOISE, context=context, mesh="coarse")
     assert missing.redchi > 5
-    # the paper's path: its sd, chi-square and quality against the same independent noise
-    paper = fit(hidden["v01_clean"], noise_mN=NOISE, context=context, mesh="coarse")
+    # the paper's identification (its window): its sd, chi-square and quality against the same independent noise
+    paper = fit(hidden["v01_clean"], window=(0.0, 0.6), noise_mN=NOISE, context=context, mesh="coarse")
     assert paper.noise_mN == paper.quality["noise_mN"] == NOISE
     assert 0.6 < paper.redchi < 1.5
 
@@ -160,6 +160,38 @@ def test_a_model_fitted_alone_and_on_the_ladder_is_one_fit(hidden, cache, contex
     for k, v in rung.parameters.items():
         assert r.parameters[k] == pytest.approx(v, rel=1e-6), k
         assert r.std[k] == pytest.approx(rung.std[k], rel=1e-6), k
+
+
+def test_fit_is_the_neo_hookean_fit_and_the_diagnosis_first_rung(hidden, cache, context):
+    """One fit, one result: ``fit(m)`` is ``fit(m, model="neo-hooke")`` and the diagnosis's first rung, to the
+    last digit (parameters, sd, chi-square); the BIC is one statistic, at the effective sample size it
+    states: the rung's at the diagnosis's, the fit's at its own, each the other's at the other's ``n_eff``."""
+    from skin_indent.diagnosis import diagnose
+    from skin_indent.fitting.error_model import score
+
+    curve = hidden["v01_clean"]
+    plain = fit(curve, context=context)
+    named = fit(curve, model="neo-hooke", context=context)
+    rung = diagnose(curve, max_rungs=0, in_loop=False, context=context, mesh="coarse").ladder[0]
+    assert plain.model == named.model == rung.model == "neo-hooke"
+    for r in (named, rung):
+        assert r.parameters == plain.parameters and r.std == plain.std
+        assert r.chi2 == plain.chi2 and r.noise_mN == plain.noise_mN
+    assert plain.bic == named.bic and plain.n_eff == named.n_eff
+    assert plain.at(rung.n_eff).bic == pytest.approx(rung.bic, rel=1e-12)
+    assert rung.at(plain.n_eff).bic == pytest.approx(plain.bic, rel=1e-12)
+    # the score by its formula: the chi-square against the error model, k ln n_eff
+    assert plain.bic == pytest.approx(score(plain.chi2, 2, plain.n_points, plain.n_eff)[1], rel=1e-12)
+    assert plain.chi2 == pytest.approx(float(np.sum((plain.residuals_mN / np.sqrt(
+        plain.noise_mN**2 + (0.003 * (curve_force(plain))) ** 2)) ** 2)), rel=1e-9)
+    # the paper's identification is an option of the same fit (the loading segment, the noise alone)
+    paper = fit(curve, method="ekf", context=context, mesh="coarse")
+    assert paper.error_model["model_error"] == 0.0 and paper.n_points < plain.n_points
+
+
+def curve_force(result) -> np.ndarray:
+    """The model's force at a fit's points (mN): measured minus residual."""
+    return result.prepared.force_mN - result.residuals_mN
 
 
 def test_cli_fits_a_chosen_model_with_a_held_thickness_and_a_prior(cache, capsys, monkeypatch, tmp_path):

@@ -139,7 +139,7 @@ def test_ekf_and_lsq_agree_on_noisy_data(model):
     assert ekf.covariance_source == "filter" and lsq.covariance_source == "jacobian"
     np.testing.assert_allclose(ekf.info["covariance_jacobian"], lsq.covariance, rtol=0.05)
     # identical fit statistics when the estimates are the same
-    assert ekf.aic == pytest.approx(lsq.aic, abs=0.01) and ekf.bic == pytest.approx(lsq.bic, abs=0.01)
+    assert ekf.aic_ml == pytest.approx(lsq.aic_ml, abs=0.01) and ekf.bic_ml == pytest.approx(lsq.bic_ml, abs=0.01)
 
 
 def test_optimum_on_the_bound(model):
@@ -272,21 +272,21 @@ def test_result_dict_and_report(model):
     assert isinstance(res, IdentificationResult) and res.success and res.method == "lsq"
     d = json.loads(json.dumps(res.to_dict()))
     assert set(d["parameters"]) == {"E_kPa", "nu"} and set(d["std"]) == {"E_kPa", "nu"}
-    for key in ("rms_mN", "noise_mN", "chi2", "aic", "bic", "iterations", "status", "message", "method"):
+    for key in ("rms_mN", "noise_mN", "chi2", "aic_ml", "bic_ml", "iterations", "status", "message", "method"):
         assert key in d
     n, rss = res.n_points, float(res.residuals_mN @ res.residuals_mN)
-    assert res.aic == pytest.approx(n * math.log(2 * math.pi * rss / n) + n + 2 * 3)
-    assert res.bic == pytest.approx(n * math.log(2 * math.pi * rss / n) + n + 3 * math.log(n))
+    assert res.aic_ml == pytest.approx(n * math.log(2 * math.pi * rss / n) + n + 2 * 3)
+    assert res.bic_ml == pytest.approx(n * math.log(2 * math.pi * rss / n) + n + 3 * math.log(n))
     assert res.rms_mN == pytest.approx(math.sqrt(rss / n))
     np.testing.assert_allclose(res.residuals_mN, z - model.force(H, list(res.parameters.values())))
     text = res.report()
     assert "E_kPa" in text and "nu" in text and "C(E_kPa, nu)" in text
     # a wrong fixed nu is worse by AIC
     wrong = fit_least_squares(model, H, z, (10, 0.3), fixed={"nu": 0.2})
-    assert wrong.aic > res.aic + 10
+    assert wrong.aic_ml > res.aic_ml + 10
     # a perfect fit stays finite and JSON-safe
     exact = fit_ekf(model, H, model.force(H, (31, 0.4)), (10, 0.3))
-    assert math.isfinite(exact.aic) and json.dumps(exact.to_dict())
+    assert math.isfinite(exact.aic_ml) and json.dumps(exact.to_dict())
 
 
 @pytest.mark.parametrize("method", list(FITTERS))

@@ -36,8 +36,7 @@ from .runtime.context import Context
 from .diagnosis import diagnose
 from .fitting.bodies import body_lines
 from .report import write_report
-from .fitting import PAPER_TOLERANCE, identify, surface_for
-from .fitting.ended import ending_flags
+from .fitting import PAPER_TOLERANCE, fit, surface_for
 from .measurement import load_csv, prepare
 from .report import save_figure
 from .report.sample_figure import sample_diagnosis_figure
@@ -80,16 +79,16 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
                           context=Context(cache_dir=cache_dir, workers=workers, progress=progress))
     echo(f"response surface: {surface.grid.shape[1]} E x {surface.grid.shape[2]} nu x {surface.grid.shape[0]} "
          f"depths, ready in {time.perf_counter() - t:.1f} s")
-    noise = inverse.estimate_noise(data.depth_mm, data.force_mN)
     results = {}
     timings = {}
     for method in ("ekf-paper", "ekf", "lsq"):
         t = time.perf_counter()
         x0 = PAPER_START if method == "ekf-paper" else None
         tol = PAPER_TOLERANCE if method == "ekf-paper" else None
-        results[method] = identify(data, surface, method, x0=x0, tol=tol, noise_mN=None if method == "ekf-paper"
-                                   else noise)
+        # the paper's identification, an option of the one fit (its window, the noise alone): `fit`'s numbers
+        results[method] = fit(measurement, surface, method, window=WINDOW_MM, contact="origin", x0=x0, tol=tol)
         timings[method] = time.perf_counter() - t
+    noise = results["lsq"].noise_mN  # the error model's noise rule (fitting.error_model.curve_noise)
     prof = inverse.profile(surface, data.depth_mm, data.force_mN, "nu", noise_mN=noise)
     lines = [f"{'method':<10} {'E (kPa)':>16} {'nu':>16} {'rms (mN)':>9} {'iterations':>11} {'time (s)':>9}"]
     for method, r in results.items():
@@ -100,7 +99,7 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
     for line in lines:
         echo(line)
     # how each fit ended where that is not a result (nu at its surface's end): as `fit` flags it
-    flags = {method: ending_flags(r, limits=False) for method, r in results.items()}
+    flags = {method: list(r.flags) for method, r in results.items()}
     for method, method_flags in flags.items():
         for flag in method_flags:
             echo(f"  flag ({method}): {flag}")

@@ -12,10 +12,12 @@ from .options import (EXIT_FLAGGED, EXIT_OK, CLIError, command_provenance, numbe
 
 def add_fit(sub):
     p = sub.add_parser("fit", help="identify E and nu from a measured curve",
-                       description="Fit a neo-Hookean half-space to the loading (approach) segment of a measured "
-                                   "curve (CSV with depth_mm|depth_um|depth_nm|depth_m, "
+                       description="Fit a model (default the neo-Hookean half-space) to a measured curve, every "
+                                   "segment, as diagnose fits it; --method ekf-paper|ekf, --window, --start, --tol, "
+                                   "--surface or --contact ask for the paper's identification (the loading segment). "
+                                   "Reads CSV with depth_mm|depth_um|depth_nm|depth_m, "
                                    "force_mN|force_N|force_uN|force_nN, optional time_s; or an instrument file "
-                                   "such as JPK .jpk-force with the optional afmformats package). A curve that "
+                                   "such as JPK .jpk-force with the optional afmformats package.) A curve that "
                                    "starts before contact gets its force baseline subtracted (and reported) and its "
                                    "contact point fitted with the material.")
     p.add_argument("data", type=Path, nargs="+",
@@ -28,17 +30,19 @@ def add_fit(sub):
     p.add_argument("--plot", type=Path, default=None, metavar="DIR",
                    help="write a PNG and a CSV (depth, force, model, residual) per curve, and summary.png, into DIR")
     p.add_argument("--mesh", choices=("coarse", "medium", "fine"), default=None,
-                   help="mesh of the finite-element runs behind a built surface (default medium; with --model or "
-                        "--prior coarse, as diagnose)")
+                   help="mesh of the finite-element runs behind a built surface (default coarse, as diagnose; medium "
+                        "for the paper's identification and a batch)")
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="fit on this Dask scheduler")
     p.add_argument("--method", choices=("ekf-paper", "ekf", "lsq"), default=None,
-                   help="ekf-paper: the paper's filter; ekf: better-conditioned filter; lsq: least squares (default)")
+                   help="ekf-paper: the paper's filter; ekf: better-conditioned filter (both the paper's identification); lsq: "
+                        "least squares (default)")
     p.add_argument("--surface", type=Path, default=None,
                    help="response surface file (default: cache, built if needed); a neo-Hookean surface of another "
                         "radius is rescaled by similarity")
     p.add_argument("--window", default=None,
-                   help="indentation depth window MIN:MAX in mm past the contact point (e.g. 0.05:0.6)")
+                   help="indentation depth window MIN:MAX in mm past the contact point (e.g. 0.05:0.6): the paper's "
+                        "identification of the loading segment")
     p.add_argument("--radius", type=number_or_numbers, default=None, metavar="MM[,MM...]",
                    help="sphere radius, mm (default: the file's, else the skin sphere 6.22; AFM: e.g. 0.0275); with "
                         "--sample one per file, in order")
@@ -51,8 +55,7 @@ def add_fit(sub):
     p.add_argument("--model", default=None, metavar="neo-hooke[+EFFECT...]",
                    help="fit this model, e.g. neo-hooke+layer+layer (two bonded layers) or neo-hooke+stiffening: "
                         "every segment, the diagnosis's fit (response surfaces, or finite elements in the loop where "
-                        "none covers the model), least squares; default: the paper's neo-Hookean half-space on the "
-                        "loading segment")
+                        "none covers the model), least squares; default neo-hooke (the same fit)")
     p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                    help="hold a parameter fixed (repeatable): E_kPa, nu or contact_point_mm, e.g. --fix nu=0.5 "
                         "(the incompressible limit of the compressible FE law); with --model any parameter the "
@@ -251,8 +254,12 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     from ..fitting import fit
     from ..measurement import prepare
 
-    chosen = args.model is not None or bool(args.priors)
-    if chosen:
+    from ..fitting.one_fit import paper_identification, paper_needed
+
+    paper = paper_identification(args.method, window=window, contact=args.contact, surface=surface, x0=x0,
+                                 tol=args.tol) or paper_needed(measurement, fixed=fixed, radius_mm=args.radius,
+                                                               model=args.model, priors=args.priors)
+    if not paper:
         from ..fitting.model_fit import prepare_curve
 
         prepared = prepare_curve(measurement, radius_mm=args.radius)
@@ -264,14 +271,14 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
         from ..measurement.scale import display_units
 
         data, u = prepared.data, display_units(prepared.radius_mm)
-        what = "points" if chosen else "loading points"
+        what = "loading points" if paper else "points"
         print(f"data: {path} ({data.n_points} {what} from {data.depth_mm.min() * u.per_mm:.4g} to "
               f"{data.depth_mm.max() * u.per_mm:.4g} {u.length}), sphere R = {prepared.radius_mm * u.per_mm:g} "
               f"{u.length} ({prepared.radius_source})"
-              + (f"; model {args.model or 'neo-hooke'}" if chosen else ""), flush=True)
-    if chosen:
+              + ("; the paper's identification" if paper else f"; model {args.model or 'neo-hooke'}"), flush=True)
+    if not paper:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
-                     noise_mN=args.noise, context=context, mesh=args.mesh)
+                     noise_mN=args.noise, context=context, mesh=args.mesh, free=args.free)
         settings = _fit_settings(args, fixed, window, args.priors)
         code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
         if result.success:
@@ -285,8 +292,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
             except ValueError:
                 raise CLIError(f"the surface is for a sphere of R = {r_surface:g} mm, the measurement for "
                                f"{prepared.radius_mm:g} mm") from None
-    result = fit(prepared, surface, args.method, fixed=fixed, x0=x0, tol=args.tol, noise_mN=args.noise,
-                 context=context, mesh=args.mesh, free=args.free)
+    result = fit(prepared, surface, args.method, window=window, contact=args.contact, fixed=fixed, x0=x0, tol=args.tol,
+                 noise_mN=args.noise, context=context, mesh=args.mesh, free=args.free)
     settings = _fit_settings(args, fixed, window)
     code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
     if result.success:  # a failed fit leaves no profile

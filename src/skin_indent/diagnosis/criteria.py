@@ -117,7 +117,8 @@ class Scores:
     def __call__(self, f: Rung) -> Rung:
         got = self.rungs.get(f.effects)
         if got is None:
-            got = self.rungs[f.effects] = dataclasses.replace(f, bic=self.bic(f))
+            aic, bic = evidence(f.chi2_weighted, f.n_parameters, self.n, self.n_eff)
+            got = self.rungs[f.effects] = dataclasses.replace(f, aic=aic, bic=bic, n_eff=self.n_eff)
         return got
 
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
-from .curve import fit
+from .one_fit import fit, paper_identification, paper_needed
 from .model_fit import parse_model, prepare_curve
 from .surfaces import SIMILARITY_RATIOS, surface_for
 from ..measurement import prepare
@@ -189,7 +189,8 @@ def _fit_task(context, prepared, surface, method, fixed, tol, x0=None, model=Non
     ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
     try:
         if model is not None:
-            return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh), None
+            return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh,
+                       free=free), None
         return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0, free=free), None
     except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
         return None, one_line(err)
@@ -322,15 +323,24 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         return _fit_many_model(files, model or "neo-hooke", priors, index=index, radius_mm=radius_mm, fixed=fixed,
                                mesh=mesh, ctx=ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir,
                                command=command)
+    # as fit() decides: the one fit of the half-space (the diagnosis's first rung), or the paper's
+    # identification where the options ask for it, at AFM scale and for nu held at 0.499 or 0.5
+    asked = paper_identification(method, window=window, contact=contact, surface=surface, x0=x0, tol=tol)
+
+    def paper(data) -> bool:
+        return asked or paper_needed(data, fixed=fixed, radius_mm=radius_mm)
+
     rows = _prepared_rows(files, index=index, radius_mm=radius_mm,
                           prepare_one=lambda m: prepare(m, window=window, contact=contact,
-                                                        contact_mm=fixed.get("offset_mm"), radius_mm=radius_mm))
-
+                                                        contact_mm=fixed.get("offset_mm"), radius_mm=radius_mm)
+                          if paper(m) else prepare_curve(m, radius_mm=radius_mm))
+    one_fit = [i for i, r in enumerate(rows) if isinstance(r, tuple) and not paper(r[1])]
+    one_fit_mesh = mesh
     mesh = "medium" if mesh is None else mesh
     # the surfaces, once each, here
-    pending = [i for i, r in enumerate(rows) if isinstance(r, tuple)]
+    pending = [i for i, r in enumerate(rows) if isinstance(r, tuple) and i not in one_fit]
     log.info("%d curve%s read from %d file%s (%d could not be read or prepared)", len(rows),
-             "s" if len(rows) != 1 else "", len(files), "s" if len(files) != 1 else "", len(rows) - len(pending))
+             "s" if len(rows) != 1 else "", len(files), "s" if len(files) != 1 else "", len(rows) - len(pending) - len(one_fit))
     groups: dict = {}
     for i in pending:
         p = rows[i][1]
@@ -353,15 +363,19 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
         for i in members:
             surface_of[i] = s
 
-    radii = sorted({rows[i][1].radius_mm for i in pending if isinstance(rows[i], tuple)})
+    radii = sorted({rows[i][1].radius_mm for i in [*pending, *one_fit] if isinstance(rows[i], tuple)})
     settings = {"radius_mm": radius_mm, "radii_mm": radii, "index": index, "window_mm": window, "contact": contact,
-                "fixed": fixed, "free": list(free), "method": method, "mesh": mesh, "tol": tol, "x0": x0,
+                "fixed": fixed, "free": list(free), "method": method, "tol": tol, "x0": x0,
+                # as given (None: each fit's default, coarse for the one fit, medium for the paper's identification)
+                "mesh": one_fit_mesh if one_fit else mesh,
                 "surface": None if surface is None else "given (see surface)"}
     prov = make_provenance(command=command, inputs=files, settings=settings, surface=surfaces)
 
     x0 = None if x0 is None else np.asarray(x0, dtype=float)
     tasks = [(i, (rows[i][1], surface_of[i], method, fixed, tol, x0, None, None, None, free))
              for i in pending if i in surface_of]
+    tasks += [(i, (rows[i][1], None, "lsq", fixed, None, None, "neo-hooke", None, one_fit_mesh, free)) for i in one_fit]
+    tasks.sort(key=lambda t: t[0])
     _run(tasks, rows, ctx, progress=progress, keep_fits=keep_fits, plot_dir=plot_dir, prov=prov,
          surface_of=surface_of)
     return BatchResult(rows, provenance=prov, surfaces=surfaces)
@@ -378,7 +392,7 @@ def _run(tasks, rows, ctx, *, progress, keep_fits, plot_dir, prov, surface_of=No
         if result is None:
             rows[i] = BatchRow(**base, radius_mm=prepared.radius_mm, error=message, **extra)
             continue
-        row = _row_of(base, result, None if surface_of is None else surface_of[i])
+        row = _row_of(base, result, None if surface_of is None else surface_of.get(i))
         if plot_dir is not None:
             row = _write_plots(row, result, plot_dir, prov)
         rows[i] = row if not keep_fits else BatchRow(**{**_fields(row), "fit": result})

@@ -1,10 +1,11 @@
-"""Fitting a curve as an instrument recorded it: :func:`fit` and its result :class:`CurveFit`.
+"""The result of a fit of one recorded curve, :class:`CurveFit`, and the paper's identification.
 
-:func:`fit` prepares the curve (:func:`skin_indent.measurement.prepare`: approach
+:func:`fit_half_space` is the paper's identification, an option of :func:`~skin_indent.fitting.fit`
+(:mod:`.one_fit`): it prepares the curve (:func:`skin_indent.measurement.prepare`: approach
 segment, baseline, contact-point guess, window, radius, scale checks), fits the
 neo-Hookean half-space on a response surface with the contact point as a parameter
 where the curve starts before contact, fits Hertz to the same points for comparison,
-and judges the fit against a noise level independent of the model.
+and judges the fit against the noise (:func:`quality`).
 """
 
 from __future__ import annotations
@@ -16,15 +17,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..inverse import IdentificationResult
-from ..runtime.provenance import records_call, surface_identity
-from .identification import (METHODS, NEARLY_INCOMPRESSIBLE_NU, check_fixed, check_modulus_range, hertz_modulus,
-                             run_method, start_values)
+from .error_model import curve_noise, described
+from .result import FitResult, scored
+from ..runtime.provenance import surface_identity
+from .identification import check_fixed, check_modulus_range, hertz_modulus, run_method, start_values
 from .surfaces import SIMILARITY_RATIOS, check_inside, surface_for
 from ..effects import CONTACT_POINT
 from ..inverse.residuals import analyse_residuals
 from ..measurement import PreparedCurve, prepare
-from ..measurement.scale import Quantity, UnitText, afm_scale, display_units, shown_in
-from ..measurement.preparation import SKIN_RADIUS_MM
+from ..measurement.scale import Quantity, UnitText, display_units, shown_in
 from .scale_checks import MISFIT_FLAG, check_points, scale_flags  # noqa: F401 - MISFIT_FLAG read here
 from .ended import how_it_ended, verdict as ended_verdict
 from ..models import ComposedModel, HertzModel
@@ -37,7 +38,7 @@ MISFIT_FLOOR = 0.5
 
 
 @dataclass(frozen=True, eq=False)
-class CurveFit(IdentificationResult):
+class CurveFit(FitResult):
     """A fitted recorded curve: the identification (all of :class:`IdentificationResult`) plus
     what was done to the data, Hertz's fit of the same points, and the fit's quality.
 
@@ -57,25 +58,13 @@ class CurveFit(IdentificationResult):
     quality : dict
         ``noise_mN`` independent of the model and its ``noise_source``, ``misfit``
         (RMS / noise), ``white`` (residual whiteness as in diagnosis), ``verdict``.
-    flags : tuple of str
-        Why the numbers may not be trusted (a parameter at a bound, misfit far above the
-        noise); empty when there is no such reason.
-    notes : list of str
     surface : dict or list of dict
         Identity of the response surface used (``hash``, ``settings``); of a chosen model's fit
         (``model=...``), a list: every elastic force model its fits used (the model's and those of
         the rungs below it, which give its starts; :func:`~skin_indent.runtime.provenance.surface_identity`).
-    model : str
-        The model fitted: ``neo-hooke`` plus ``+effect`` for each effect.
-    priors : dict
-        Per parameter given a prior: prior, posterior, how much the data narrowed it
-        (:func:`~skin_indent.fitting.knowledge.prior_summary`).
-    error_model : dict
-        How the chi-square and BIC weigh each point (``fit(model=...)``: noise and model error in
-        quadrature; empty for the half-space fit of the paper's path, weighed by the noise alone).
-    provenance : dict
-        How the fit was made (:func:`skin_indent.runtime.provenance.provenance`): by
-        :func:`fit`, its ``api`` call, the arguments given and the curve's data digest.
+
+    The model, the curve's summary (``curves``, one), flags, notes, priors, error model, provenance and
+    correlations are those of every fit (:class:`~skin_indent.fitting.result.FitResult`).
     """
 
     prepared: object = None
@@ -86,25 +75,7 @@ class CurveFit(IdentificationResult):
     e_star_std_kPa: float = math.nan
     hertz: dict = field(default_factory=dict)
     quality: dict = field(default_factory=dict)
-    flags: tuple = ()
-    notes: list = field(default_factory=list)
     surface: dict | list = field(default_factory=dict)
-    model: str = "neo-hooke"
-    priors: dict = field(default_factory=dict)
-    error_model: dict = field(default_factory=dict)
-    provenance: dict = field(default_factory=dict, repr=False)
-    #: ``((name, name, r), ...)`` under the names ``parameters`` uses (a chosen model's fit:
-    #: :func:`~skin_indent.fitting.rung.reported_correlations`); None: the fit's own coordinates
-    correlations: tuple | None = None
-
-    def correlation_pairs(self) -> list:
-        """The correlations :meth:`report` lists, under the names ``parameters`` uses."""
-        return super().correlation_pairs() if self.correlations is None else list(self.correlations)
-
-    @property
-    def trusted(self) -> bool:
-        """Converged and no flag."""
-        return self.success and not self.flags
 
     @property
     def max_depth_ratio(self) -> float:
@@ -144,15 +115,7 @@ class CurveFit(IdentificationResult):
             "hertz": dict(self.hertz),
             "fe_vs_hertz_percent": self.fe_vs_hertz_percent,
             "quality": dict(self.quality),
-            "flags": list(self.flags),
-            "notes": list(self.notes),
             "surface": self.surface,
-            "model": self.model,
-            "priors": dict(self.priors),
-            "error_model": dict(self.error_model),
-            "provenance": dict(self.provenance),
-            # the correlations under the names ``parameters`` uses (``covariance`` is in the fit's coordinates)
-            "correlations": [{"a": a, "b": b, "r": r} for a, b, r in self.correlation_pairs()],
         })
         return jsonable(out)
 
@@ -206,10 +169,13 @@ class CurveFit(IdentificationResult):
             lines.append(f"E* = E/(1-nu^2) of the top material {self.e_star_kPa * kM:.5g} +/- "
                          f"{self.e_star_std_kPa * kM:.2g} {M}; Hertz's homogeneous small-strain fit of the loading "
                          f"points {h['E_star_kPa'] * kM:.5g} +/- {h['E_star_std_kPa'] * kM:.2g} {M}")
-        if self.error_model:
+        if self.error_model and self.error_model["model_error"]:
             lines.append(f"error model: chi-square and BIC weigh each point by sqrt(noise^2 + "
                          f"({self.error_model['model_error']:g} F)^2), the noise and the forward model's relative "
                          "error (the fit itself is unweighted least squares)")
+        elif self.error_model:
+            lines.append("error model: chi-square and BIC weigh each point by the noise alone (the paper's "
+                         "identification: no model error)")
         q = self.quality
         if q:
             lines.append(f"quality: {q['verdict']} (RMS {self.rms_mN * kF:.3g} {F} = {q['misfit']:.2g} x the noise "
@@ -235,21 +201,24 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
     """The fit's misfit against a noise level independent of the model, and its whiteness.
 
     ``noise`` = ``(noise_mN, source)`` where the fit already has one (default the curve's,
-    :meth:`~skin_indent.measurement.PreparedCurve.noise_mN`); ``white`` where the fit already
+    :func:`~skin_indent.fitting.error_model.curve_noise`); ``white`` where the fit already
     judged its residual (default judged here at that noise). ``ended``: how the fit ended where
     that is not a result (:func:`~skin_indent.fitting.ended.how_it_ended`): the verdict then says
     so (:func:`~skin_indent.fitting.ended.verdict`), whatever the misfit.
     """
     if noise is None:
         try:
-            noise = prepared.noise_mN()
+            noise = curve_noise(prepared)
         except ValueError:
             return {}
     noise, source = noise
     r = np.asarray(residual_mN, dtype=float)
     rms = float(np.sqrt(np.mean(r**2)))
     if white is None:
-        white = analyse_residuals(r, noise, n_free).white
+        try:
+            white = analyse_residuals(r, noise, n_free).white
+        except ValueError:  # too few points to test the residual (4 points, nu held): no evidence of structure
+            white = True
     misfit = rms / noise
     if misfit > MISFIT_LIMIT:
         verdict = "misfit far above the noise: the model does not describe this curve; try `skin-indent diagnose`"
@@ -268,153 +237,6 @@ def quality(prepared, residual_mN, n_free: int, *, noise=None, white: bool | Non
             "verdict": verdict}
 
 
-def _independent_noise(prepared) -> tuple[float, str] | None:
-    """The curve's noise level independent of any model, or None when it cannot be estimated."""
-    try:
-        return prepared.noise_mN()
-    except ValueError:
-        return None
-
-
-@records_call("skin_indent.fit")
-def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = "auto", fixed: dict | None = None,
-        radius_mm: float | None = None, x0=None, tol: float | None = None, noise_mN: float | None = None,
-        context=None, mesh: str | None = None, model=None, priors: dict | None = None, free=(),
-        **options) -> CurveFit:
-    """Fit a recorded curve: the paper's neo-Hookean half-space, or the model you choose.
-
-    Without ``model`` (and without ``priors``): the paper's path, the large-strain
-    neo-Hookean half-space fitted to the loading segment on a response surface by any of
-    the three methods, with Hertz for comparison. With ``model`` (``"neo-hooke+layer+layer"``)
-    or ``priors``: :func:`~skin_indent.fitting.model_fit.fit_model`, the fit the diagnosis
-    makes of that model (every segment, the multistart fitter, response surfaces or
-    finite elements in the loop, the error model), least squares only.
-
-    Parameters
-    ----------
-    data : Measurement or PreparedCurve, or a list of them
-        The whole curve as recorded (approach, hold, retract; any baseline; contact
-        anywhere), or a curve already prepared with :func:`skin_indent.measurement.prepare`.
-        A list is several curves of one sample fitted together (the model path, default
-        ``model="neo-hooke"``): a :class:`~skin_indent.fitting.sample_fit.SampleFit`.
-    surface : ResponseSurface, optional
-        A neo-Hookean surface (any radius: rescaled by similarity); default found in the
-        cache or built (``context``, ``mesh``).
-    method : {"ekf-paper", "ekf", "lsq"}
-    window : (float, float), optional
-        Indentation depths past the contact point (mm).
-    contact : {"auto", "fit", "origin"}
-        See :func:`skin_indent.measurement.prepare`.
-    fixed : dict, optional
-        ``{"E_kPa": ..., "nu": ..., "offset_mm": ...}`` held fixed (``offset_mm``: the
-        contact point, recorded depth in mm). ``nu = 0.5`` is the incompressible limit
-        of the compressible finite-element law (see :func:`incompressible_limit`). With a
-        ``model``, any parameter it reports (``thickness_mm``, ``ratio``...). Default: nothing
-        held at skin scale (nu fitted, as in the paper); ``nu = 0.5`` at AFM scale (sphere radius
-        below 0.5 mm, :func:`skin_indent.measurement.scale.afm_scale`), the AFM field's convention.
-    free : sequence of str
-        Parameters fitted that the scale's default holds: ``("nu",)`` fits nu at AFM scale.
-        Not taken with a ``model`` (its fits keep nu free, as the diagnosis).
-    radius_mm : float, optional
-        Sphere radius (mm); default the measurement's, else the skin default 6.22 mm.
-    x0 : array_like, optional
-        Start (E_kPa, nu); default a Hertz estimate.
-    tol, noise_mN : float, optional
-        Stop rule of the filters; a known noise level (mN).
-    context : Context, optional
-        Where surfaces are cached and built.
-    mesh : str, optional
-        Mesh of the finite-element runs behind a built surface (default ``"medium"``; with a
-        ``model``, ``"coarse"`` as the diagnosis).
-    model : str, optional
-        ``"neo-hooke"`` plus ``+effect`` per effect: fit that model (see above).
-    priors : dict, optional
-        ``{name: (mean, sd)}`` Gaussian priors on parameters (implies the model path).
-    **options
-        Of the model path: ``segments``, ``in_loop`` (see :func:`~skin_indent.fitting.model_fit.fit_model`).
-
-    Returns
-    -------
-    CurveFit
-        With the scale checks' flags (:func:`~skin_indent.fitting.scale_checks.scale_flags`: a
-        modulus no tissue or gel has, h/R below what instruments resolve, few points in contact, a
-        parameter whose sd exceeds its value), each naming the likely slip.
-
-    Raises
-    ------
-    MeasurementError
-        Fewer points in contact than the parameters fitted need
-        (:func:`~skin_indent.fitting.scale_checks.check_points`), and the preparation's refusals.
-
-    Examples
-    --------
-    >>> import skin_indent as si
-    >>> m = si.load_csv(si.bundled_path("forearm_like.csv"), radius_mm=6.22)
-    >>> result = si.fit(m, window=(0.05, 0.6))                        # doctest: +SKIP
-    >>> result.parameters["E_kPa"], result.quality["verdict"]          # doctest: +SKIP
-    """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
-    free = tuple(free or ())
-    if set(free) - {"nu"}:
-        raise ValueError(f"free takes nu (held at 0.5 by default at AFM scale), got {', '.join(free)}")
-    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
-    if several and model is None:
-        model = "neo-hooke"  # several curves of one sample: the model path fits them together
-    if model is not None or priors:
-        if free:
-            raise ValueError("a fit of a chosen model fits nu unless it is held (--fix nu=...): free is not taken")
-        from .model_fit import fit_model, parse_model
-
-        effects = parse_model("neo-hooke" if model is None else model)
-        if method != "lsq":
-            if effects or priors:
-                raise ValueError(f"--method {method} fits the neo-Hookean half-space on a response surface; "
-                                 f"{'the model ' + str(model) if effects else 'priors'} need least squares "
-                                 "(--method lsq)")
-        else:
-            if x0 is not None or tol is not None or surface is not None or window is not None or contact != "auto":
-                raise ValueError("a fit of a chosen model prepares the curve as the diagnosis does: start values, "
-                                 "tol, a surface file, a window and the contact mode are not taken")
-            return fit_model(data, effects, fixed=fixed, priors=priors, noise_mN=noise_mN, radius_mm=radius_mm,
-                             context=context, mesh=mesh or "coarse", **options)
-    if options:
-        raise TypeError(f"fit() got unexpected keyword arguments {', '.join(options)} (they need a model=...)")
-    mesh = mesh or "medium"
-    fixed = dict(fixed or {})
-    if "nu" in fixed and "nu" in free:
-        raise ValueError(f"nu is both held (at {fixed['nu']:g}) and freed: give one of them")
-    by_default = "nu" not in fixed and "nu" not in free and afm_scale(_radius_of(data, radius_mm))
-    if by_default:
-        fixed["nu"] = 0.5
-    if fixed.get("nu") == 0.5:
-        result = incompressible_limit(data, surface, method, window=window, contact=contact, fixed=fixed,
-                                      radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context,
-                                      mesh=mesh)
-        if by_default:
-            result = dataclasses.replace(result, notes=[*result.notes, NU_DEFAULT_NOTE])
-        return result
-    return with_scale_flags(_fit_half_space(data, surface, method, window=window, contact=contact, fixed=fixed,
-                                            radius_mm=radius_mm, x0=x0, tol=tol, noise_mN=noise_mN, context=context,
-                                            mesh=mesh))
-
-
-#: the note of a fit whose nu the AFM scale held
-NU_DEFAULT_NOTE = ("nu = 0.5 held, the default at AFM scale (sphere radius < 0.5 mm: the field's convention); "
-                   "--free nu (free=(\"nu\",)) fits it")
-
-
-def _radius_of(data, radius_mm) -> float:
-    """The sphere radius a fit of ``data`` uses (mm): given, the curve's, else the skin default."""
-    for r in (radius_mm, getattr(data, "radius_mm", None)):
-        if r is not None:
-            try:
-                return float(r)
-            except (TypeError, ValueError):
-                return math.nan  # refused in one line by the preparation
-    return SKIN_RADIUS_MM
-
-
 def with_scale_flags(result: CurveFit, at_bounds=None) -> CurveFit:
     """``result`` with the scale checks' flags appended (:func:`~skin_indent.fitting.scale_checks.scale_flags`)."""
     bounds = result.info.get("active_bounds", ()) if at_bounds is None else at_bounds
@@ -428,9 +250,11 @@ def _n_free(prepared, fixed) -> int:
                                                                and "offset_mm" not in fixed)
 
 
-def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm, x0, tol, noise_mN, context,
+def fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm, x0, tol, noise_mN, context,
                     mesh) -> CurveFit:
-    """The paper's path of :func:`fit` at the values held in ``fixed`` (nu < 0.5), without the scale flags."""
+    """The paper's identification (an option of :func:`~skin_indent.fitting.fit`) at the values held in
+    ``fixed`` (nu < 0.5), without the scale flags: the loading points (of ``window``), a response surface,
+    ``method``, the noise alone (no model error), Hertz for comparison."""
     if isinstance(data, PreparedCurve):
         prepared = data
     else:
@@ -468,13 +292,18 @@ def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm,
         fixed.pop("offset_mm", None)
     # one noise per curve, independent of the model: the uncertainties, chi-square and reduced
     # chi-square are against it (a model that misses the curve shows as a reduced chi-square >> 1)
-    independent = (noise_mN, "given") if noise_mN is not None else _independent_noise(prepared)
+    # (the paper's identification: the noise alone, no model error, the error model's noise rule)
+    try:
+        independent = curve_noise(prepared, noise_mN)
+    except ValueError:
+        independent = None
     sigma = independent[0] if independent else None
     result = run_method(model, depth, F, x0, method, fixed=fixed, tol=tol,
                         noise_mN=sigma if method == "lsq" else noise_mN)
     if sigma is not None and method != "lsq":  # the filters' covariance is their own; the statistics use the noise
         rss = float(result.residuals_mN @ result.residuals_mN)
         result = dataclasses.replace(result, noise_mN=sigma, chi2=rss / sigma**2)
+    score = scored(result.chi2, result.residuals_mN / result.noise_mN, result.n_free)
     hz = run_method(hertz_model, depth, F, hertz_x0, "lsq")
     contact_sd = None
     if mode == "fit":
@@ -497,42 +326,14 @@ def _fit_half_space(data, surface, method, *, window, contact, fixed, radius_mm,
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its modulus is not to be trusted")
     base = {f.name: getattr(result, f.name) for f in dataclasses.fields(IdentificationResult)}
-    return CurveFit(**base, prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
+    summary = {"data": prepared.source, "n_points": prepared.n, "radius_mm": float(radius),
+               "radius_source": prepared.radius_source, "noise_mN": q.get("noise_mN"),
+               "noise_source": q.get("noise_source"), "rms_mN": result.rms_mN, "misfit": q.get("misfit"),
+               "white": q.get("white"), "contact_mode": mode, "contact_point_mm": float(contact),
+               "contact_point_std_mm": None if contact_sd is None else float(contact_sd),
+               "baseline_mN": prepared.baseline_mN}
+    return CurveFit(**base, **score, curves=[summary], prepared=prepared, radius_mm=float(radius), contact_point_mm=float(contact),
                     contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                     e_star_std_kPa=e_star_sd, hertz=hertz, quality=q, flags=tuple(flags), notes=notes,
-                    surface=surface_identity(surface) or {})
-
-
-#: the two nu of the compressible law the incompressible limit is extrapolated from
-LIMIT_NU = (0.49, NEARLY_INCOMPRESSIBLE_NU)
-
-
-def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> CurveFit:
-    """:func:`fit` with nu = 0.5: the incompressible limit of the compressible finite-element law.
-
-    The law needs nu < 0.5, but its force converges as nu -> 0.5 at fixed
-    E* = E / (1 - nu^2) (the volumetric term only stiffens what is already nearly
-    incompressible). The curve is fitted at nu = 0.49 and 0.499, E* is extrapolated
-    linearly in nu to 0.5, and E = 0.75 E*. The result is the fit at 0.499 with E, its
-    standard deviation and nu replaced, and a note giving the size of the extrapolation.
-    Checked against Hertz at small depth and against nu = 0.499 in ``tests/test_api.py``.
-    """
-    fixed = dict(kwargs.pop("fixed", None) or {})
-    kwargs = {"window": None, "contact": "auto", "radius_mm": None, "x0": None, "tol": None, "noise_mN": None,
-              "context": None, "mesh": "medium", **kwargs}
-    fits = {nu: _fit_half_space(data, surface, method, fixed={**fixed, "nu": nu}, **kwargs) for nu in LIMIT_NU}
-    lo, hi = LIMIT_NU
-    e_lo, e_hi = fits[lo].e_star_kPa, fits[hi].e_star_kPa
-    e_star = e_hi + (e_hi - e_lo) * (0.5 - hi) / (hi - lo)
-    near = fits[hi]
-    E = 0.75 * e_star
-    scale = E / near.parameters["E_kPa"]
-    parameters = {**near.parameters, "E_kPa": E, "nu": 0.5}
-    std = {k: (v * scale if k == "E_kPa" else v) for k, v in near.std.items()}
-    note = UnitText("nu = 0.5: the incompressible limit, E* extrapolated from nu = {lo:g} ({e_lo:.5g}) and {hi:g} "
-                    "({e_hi:.5g}) to {e_star:.5g} ({moved:+.2g}% from nu = {hi:g})", lo=lo, hi=hi,
-                    e_lo=Quantity(e_lo, "kPa"), e_hi=Quantity(e_hi, "kPa"), e_star=Quantity(e_star, "kPa"),
-                    moved=100 * (e_star / e_hi - 1))
-    notes = [n for n in near.notes if not n.startswith("nu fixed")] + [note]
-    return with_scale_flags(dataclasses.replace(near, parameters=parameters, std=std, e_star_kPa=e_star,
-                                                e_star_std_kPa=near.e_star_std_kPa * e_star / e_hi, notes=notes))
+                    surface=surface_identity(surface) or {},
+                    error_model=described(result.noise_mN, 0.0) if independent else {})

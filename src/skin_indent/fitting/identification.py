@@ -19,7 +19,7 @@ METHODS = ("ekf-paper", "ekf", "lsq")
 #: The paper's in vivo stop rule.
 PAPER_TOLERANCE = 1e-5
 #: The nu the finite-element surfaces offer next to incompressibility (the law needs nu < 0.5);
-#: nu = 0.5 itself is its limit (:func:`skin_indent.fitting.curve.fit`).
+#: nu = 0.5 itself is its limit (:func:`skin_indent.fitting.one_fit.incompressible_limit`).
 NEARLY_INCOMPRESSIBLE_NU = 0.499
 
 

@@ -2,7 +2,7 @@
 
 :func:`fit_model` is the path of :func:`skin_indent.fitting.fit` with ``model=...``:
 the curve is prepared as the diagnosis prepares it (every segment, at most
-:data:`MAX_POINTS` points), its noise is the diagnosis's (:func:`curve_noise`), and the
+:data:`MAX_POINTS` points), its noise is the diagnosis's (:func:`~.error_model.curve_noise`), and the
 model is fitted by the same multistart fitter (:class:`~skin_indent.fitting.multistart.Fitter`:
 response surfaces where they cover the model, finite elements in the loop where they do
 not), so a model fitted here and the same model on a diagnosis's ladder are one fit with
@@ -19,14 +19,13 @@ import math
 import numpy as np
 
 from ..effects import CONTACT_POINT, parse_effects
-from ..inverse import IdentificationResult
-from ..measurement import SEGMENTS, CurveSet, PreparedCurve, prepare
-from ..measurement.scale import Name, Quantity, UnitText
+from ..measurement import SEGMENTS, CurveSet, MeasurementError, PreparedCurve, prepare
 from .curve import CurveFit, quality, with_scale_flags
+from .error_model import NOISE_POINTS, curve_noise, per_curve, sample_noise  # noqa: F401 - the diagnosis reads them here
 from .identification import hertz_modulus, run_method
-from .knowledge import DETERMINED_BY
 from .multistart import Fitter
-from .rung import evidence, reported_correlations
+from .result import ScoredResult, curve_summaries, knowledge_of
+from .rung import reported_correlations
 from .sample_fit import sample_fit_of
 from .scale_checks import MISFIT_FLAG
 from .surfaces import interpolation_flags
@@ -35,7 +34,9 @@ from ..runtime.context import context_of
 from ..runtime.provenance import surface_identity
 
 #: at most this many points are fitted (longer curves are averaged in bins, in time order)
-MAX_POINTS = 400
+MAX_POINTS = NOISE_POINTS  # the noise rule estimates on at most as many (error_model)
+
+
 def parse_model(model) -> tuple[str, ...]:
     """The effects of a fitted model (:func:`skin_indent.effects.parse_effects`, the one parser)."""
     return parse_effects(model)
@@ -57,15 +58,6 @@ def is_several(data) -> bool:
     return isinstance(data, (list, tuple, CurveSet))
 
 
-def per_curve(value, n: int, what: str) -> list:
-    """``value`` for each of ``n`` curves: one value for all, or a sequence of ``n`` (one line otherwise)."""
-    if isinstance(value, (list, tuple, np.ndarray)):
-        if len(value) != n:
-            raise ValueError(f"{what}: {len(value)} values for {n} curves (give one, or one per curve)")
-        return list(value)
-    return [value] * n
-
-
 def prepare_sample(data, *, radius_mm=None, segments=SEGMENTS) -> list[PreparedCurve]:
     """Several recorded curves of one sample prepared as :func:`prepare_curve` prepares one, each with
     its own sphere radius (``radius_mm``: one for all, one per curve, or None: each curve's own)."""
@@ -74,26 +66,6 @@ def prepare_sample(data, *, radius_mm=None, segments=SEGMENTS) -> list[PreparedC
         raise ValueError("several curves of one sample: give at least two")
     radii = per_curve(radius_mm, len(curves), "radius_mm")
     return [prepare_curve(c, radius_mm=r, segments=segments) for c, r in zip(curves, radii)]
-
-
-def sample_noise(curves, noise_mN=None) -> tuple[list, list]:
-    """Each curve's noise level (mN) and where it comes from (:func:`curve_noise`); ``noise_mN`` one for
-    all curves, one per curve, or None (each estimated from its own data)."""
-    out = [curve_noise(c, s) for c, s in zip(curves, per_curve(noise_mN, len(curves), "noise_mN"))]
-    return [s for s, _ in out], [w for _, w in out]
-
-
-def curve_noise(data: PreparedCurve, noise_mN: float | None = None) -> tuple[float, str]:
-    """The noise level of a prepared curve (mN) and where it comes from: given (per raw sample,
-    divided by sqrt of the bin size), or estimated from the data (local cubic prediction)."""
-    if noise_mN is None:
-        source = "estimated from the data (local cubic prediction)"
-        if data.binned > 1:
-            source += f" after averaging bins of {data.binned} samples"
-        return data.high_frequency_noise_mN(), source
-    if not (math.isfinite(noise_mN) and noise_mN > 0):
-        raise ValueError(f"noise must be a positive number of mN, got {noise_mN}")
-    return float(noise_mN) / math.sqrt(data.binned), "given"
 
 
 def _hertz(prepared: PreparedCurve) -> dict:
@@ -149,7 +121,7 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     CurveFit or SampleFit
         A :class:`~skin_indent.fitting.sample_fit.SampleFit` for several curves. ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
         model error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
-        ``bic`` as the diagnosis computes it (:func:`~skin_indent.fitting.rung.evidence`);
+        ``bic`` the rung's (:data:`~skin_indent.fitting.error_model.BIC_FORMULA`, at its own ``n_eff``);
         ``flags`` with the scale checks' (:func:`~skin_indent.fitting.scale_checks.scale_flags`).
 
     Raises
@@ -169,16 +141,22 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     context = context_of(context)
     if is_several(data):
         curves = prepare_sample(data, radius_mm=radius_mm, segments=segments)
-        sigmas, sources = sample_noise(curves, noise_mN)
     else:
         curves = [prepare_curve(data, radius_mm=radius_mm, segments=segments)]
-        sigma, source = curve_noise(curves[0], noise_mN)
-        sigmas, sources = [sigma], [source]
+    try:
+        sigmas, sources = sample_noise(curves, noise_mN)
+        no_noise = None
+    except MeasurementError as err:  # too few points to estimate it: said after the count of points, which comes first
+        sigmas, sources, no_noise = [math.nan] * len(curves), [""] * len(curves), err
     fitter = Fitter(curves, sigmas, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
                     fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
+    fitter.check_points_before_building(effects)  # a curve too short for the model builds nothing
     target = fitter.model(effects)
     fitter.check_names(target)
+    _check_held(fitter, target)
     fitter.check_points(target)
+    if no_noise is not None:
+        raise no_noise
     for i in range(len(effects)):  # the rungs below, as a diagnosis climbs to it: the same warm starts
         try:
             fitter.fit(effects[:i])
@@ -190,12 +168,23 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
     return curve_fit_of(rung, fitter, noise_source=sources[0])
 
 
+def _check_held(fitter: Fitter, model) -> None:
+    """One line for a value held outside what the model covers (its fit coordinates' ranges)."""
+    lo, hi = model.bounds
+    for name, v in fitter.held(model).items():
+        i = model.parameter_names.index(name)
+        if not lo[i] * (1 - 1e-9) <= v <= hi[i] * (1 + 1e-9):
+            raise ValueError(f"{name} = {v:g} is held outside what {model.name} covers ({lo[i]:g} to {hi[i]:g})"
+                             + ("; nu = 0.499 or 0.5 (the incompressible limit) are taken by the half-space, "
+                                "the paper's identification" if name == "nu" else ""))
+
+
 def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     """The :class:`CurveFit` of a fitted rung: the numbers the ladder shows, with the data
     treatment, Hertz's fit of the same loading points, the quality and the flags (with the scale
     checks', :func:`~skin_indent.fitting.scale_checks.scale_flags`)."""
     prepared = fitter.data
-    n, k = prepared.n, rung.n_free
+    k = rung.n_free
     p = rung.parameters
     contact = p.get(CONTACT_POINT.parameters[0].name, prepared.contact_guess_mm)
     contact_sd = rung.std.get(CONTACT_POINT.parameters[0].name)
@@ -209,33 +198,22 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     g = np.array([1 / (1 - nu**2), 2 * E * nu / (1 - nu**2) ** 2])
     C = np.array([[sd_E**2, rho * sd_E * sd_nu], [rho * sd_E * sd_nu, sd_nu**2]])
     var = float(g @ C @ g)
-    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=rung.white,
+    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=None if rung.analysis is None else rung.white,
                 ended=rung.ended)
     flags = list(rung.flags)  # how the fit ended (fitting.ended), as the ladder shows it
     if q and q["misfit"] > MISFIT_FLAG:
         flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
                      "this curve and its parameters are not to be trusted")
-    for name, s in rung.priors.items():
-        if s["in_tension"]:
-            flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
-                         f"({s['tension_sd']:.1f} combined sd apart)")
+    known_flags, known_notes = knowledge_of(rung, fitter)
+    flags += known_flags
     flags += interpolation_flags(rung.bound_model, rung.x)
-    notes = list(prepared.notes)
-    notes += [UnitText("{name} held at {value:g}", name=Name(name), value=Quantity(v, name))
-              for name, v in fitter.fixed.items() if name in p]
-    for name, s in rung.priors.items():
-        notes.append(UnitText("{name}: prior {mean:.4g} +- {sd:.2g}, posterior {post:.4g} +- {post_sd:.2g} (sd x "
-                              "{narrowed:.2f}: {by})", name=Name(name), mean=Quantity(s["prior_mean"], name),
-                              sd=Quantity(s["prior_sd"], name), post=Quantity(s["posterior"], name),
-                              post_sd=Quantity(s["posterior_sd"], name), narrowed=s["narrowed"],
-                              by=DETERMINED_BY[s["determined_by"]]))
-    aic, bic = evidence(rung.chi2_weighted, k, n)
-    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
-    base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
+    notes = list(prepared.notes) + known_notes
+    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
     result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
                       e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
                       flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
+                      curves=curve_summaries(rung, fitter, [noise_source]),
                       priors=dict(rung.priors), error_model=fitter.error_model(),
                       correlations=reported_correlations(rung))
     ended = tuple(n for e in rung.ended for n in e.parameters)  # by the names results report (ratio)

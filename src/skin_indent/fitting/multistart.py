@@ -18,7 +18,9 @@ from ..measurement import CurveSet
 from ..measurement.scale import joined
 from ..models import ComposedModel, JointModel
 from .identification import hertz_modulus
-from .rung import MODEL_ERROR, NO_STRUCTURE, Rung, evidence, reported_covariance, structure_sentence
+from .error_model import MODEL_ERROR, described, point_sigma
+from .result import scored
+from .rung import NO_STRUCTURE, Rung, evidence, reported_covariance, structure_sentence
 from .knowledge import held_coordinates, prior_rows, prior_summary
 from .scale_checks import check_points
 from .ended import how_it_ended, reported_message, stalled
@@ -123,8 +125,7 @@ class Fitter:
 
     def sigma(self, force) -> np.ndarray:
         """The error model: sigma_i (mN) of each point, noise (its curve's) and model error in quadrature."""
-        noise = self.noise_points if self.joint else self.noise_mN
-        return np.sqrt(noise**2 + (MODEL_ERROR * np.abs(force)) ** 2)
+        return point_sigma(self.noise_points if self.joint else self.noise_mN, force)
 
     def visible(self, e) -> str | None:
         """None if the effect ``e`` can show in the data (a curve, or the curves of a sample
@@ -144,8 +145,7 @@ class Fitter:
 
     def error_model(self) -> dict:
         """The error model in words and numbers (how the chi-square and BIC of every fit of this curve weigh it)."""
-        return {"noise_mN": self.noise_mN if not self.joint else list(self.noises_mN), "model_error": MODEL_ERROR,
-                "sigma": "sqrt(noise^2 + (model_error * F)^2)" + (", noise of each point's curve" if self.joint else "")}
+        return described(self.noise_mN if not self.joint else list(self.noises_mN), MODEL_ERROR, self.joint)
 
     def held(self, model) -> dict:
         """The fixed values of the parameters ``model`` has, as its fit coordinates ``{name: value}``
@@ -443,16 +443,23 @@ class Fitter:
                      for k in self.priors if k in params}
         r = best.residuals_mN
         s = self.sigma(pred)
-        analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
+        try:
+            analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
+        except ValueError:  # too few points to test the residual (a fit of 4 points, nu held): not judged white
+            analysis = None
         curve_rms, curve_white = self._per_curve(r, s, best.n_free)
         base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
-        base.update(parameters=params, std=std, bic=math.nan, message=reported_message(best, model, x))
+        chi2 = float(np.sum((r / s) ** 2))
+        base.update(parameters=params, std=std, chi2=chi2, message=reported_message(best, model, x),
+                    **scored(chi2, r * (self.noise_mN / s), best.n_free))
+        ended = tuple(how_it_ended(best, model, x))
         rung = Rung(**base, model=model_name(key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
-                    chi2_weighted=float(np.sum((r / s) ** 2)), white=analysis.white, analysis=analysis,
+                    chi2_weighted=chi2, white=bool(analysis is not None and analysis.white), analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
                     at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
-                    curve_white=curve_white, ended=tuple(how_it_ended(best, model, x)),
+                    curve_white=curve_white, ended=ended, flags=tuple(e.text for e in ended),
+                    error_model=self.error_model(),
                     reported_cov=reported_covariance(model, x, cov))
         self.fits[key] = rung
         return rung

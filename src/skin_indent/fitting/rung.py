@@ -12,30 +12,28 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..inverse import IdentificationResult
 from ..inverse.residuals import describe_structure
 from ..measurement.scale import Quantity, Unit, UnitText, joined
 from ..runtime.json_io import jsonable
-
-#: relative accuracy of the forward model (FE + surface), added to the noise in quadrature
-MODEL_ERROR = 0.003
+from .error_model import MODEL_ERROR, score as evidence  # noqa: F401 - their names here before error_model
+from .result import FitResult
 #: the structure sentence of a residual in which no range departs from the model
 NO_STRUCTURE = "no range departs from the model beyond the noise"
 
 
 @dataclass(frozen=True, eq=False)
-class Rung(IdentificationResult):
+class Rung(FitResult):
     """One fitted model of a diagnosis (a rung of the ladder or a candidate).
 
-    Everything of :class:`~skin_indent.inverse.IdentificationResult` (the least-squares
-    fit; ``covariance`` and ``free_names`` in the fit coordinates ``fit_parameters``),
-    with ``parameters`` and ``std`` as users read them (``ratio``, ``C20_kPa``...), and
-    the diagnosis' own criterion ``bic`` (:attr:`BIC_FORMULA`).
+    A :class:`~skin_indent.fitting.result.FitResult` (the result of every fit: ``model``, ``flags``,
+    ``priors``, the score ``bic``, :attr:`BIC_FORMULA`, at its own ``n_eff`` when fitted, at the
+    diagnosis's common ``n_eff`` in a diagnosis; ``covariance`` and ``free_names`` in the fit
+    coordinates ``fit_parameters``, ``parameters`` and ``std`` as users read them: ``ratio``,
+    ``C20_kPa``...), with what the diagnosis reads of it. Its ``flags`` say how the fit ended where
+    that is not a result (:attr:`ended`): what every output shows.
 
     Attributes
     ----------
-    model : str
-        ``neo-hooke`` plus ``+effect`` for each effect.
     effects : tuple of str
     fit_parameters : dict
         The fitted coordinates (``compliance``, ``C20_over_E``...).
@@ -54,9 +52,6 @@ class Rung(IdentificationResult):
         Finite-element runs the fit made (the finite-element model in the loop; 0 on surfaces).
     at_bounds : tuple of str
         Fit parameters that ended on a face of their range.
-    priors : dict
-        Per parameter given a prior, :func:`~skin_indent.fitting.knowledge.prior_summary`: the prior, the
-        posterior, how much the data narrowed it and whether data and prior agree.
     curve_rms_mN : tuple of float
         The RMS residual of each curve (mN), in input order (one curve: ``(rms_mN,)``).
     curve_white : tuple of bool
@@ -73,10 +68,6 @@ class Rung(IdentificationResult):
         stays with a rung whose model is left out.
     """
 
-    BIC_FORMULA = ("(n_eff / n) sum r_i^2 / sigma_i^2 + k ln n_eff, sigma_i^2 = noise^2 + (0.003 F_i)^2, "
-                   "n_eff the AR(1) effective sample size")
-
-    model: str = ""
     effects: tuple = ()
     fit_parameters: dict = field(default_factory=dict)
     prediction_mN: np.ndarray = None
@@ -88,16 +79,10 @@ class Rung(IdentificationResult):
     x: np.ndarray = None
     forward_runs: int = 0
     at_bounds: tuple = ()
-    priors: dict = field(default_factory=dict)
     curve_rms_mN: tuple = ()
     curve_white: tuple = ()
     ended: tuple = ()
     reported_cov: tuple = ()
-
-    @property
-    def flags(self) -> tuple:
-        """How the fit ended, where that is not a result (:attr:`ended`): what every output shows."""
-        return tuple(e.text for e in self.ended)
 
     @property
     def moved(self) -> bool:
@@ -167,19 +152,6 @@ def reported_correlations(rung) -> tuple:
     sd = np.sqrt(np.clip(np.diag(V), 0.0, None))
     return tuple((names[p], names[q], float(np.clip(V[p, q] / (sd[p] * sd[q]), -1.0, 1.0)))
                  for p in range(len(names)) for q in range(p + 1, len(names)) if sd[p] > 0 and sd[q] > 0)
-
-
-def evidence(chi2_weighted: float, k: int, n: int, n_eff: float | None = None) -> tuple[float, float]:
-    """AIC and BIC of a fit from its weighted chi-square (:attr:`Rung.BIC_FORMULA`).
-
-    ``chi2_weighted`` is the sum of r_i^2 / sigma_i^2 (noise and model error in
-    quadrature), ``k`` the fitted parameters, ``n`` the points; with ``n_eff`` (an effective
-    sample size, the diagnosis's) the chi-square counts ``n_eff / n`` of its value and the
-    penalty ``ln n_eff`` per parameter.
-    """
-    m = float(n if n_eff is None else n_eff)
-    chi2 = chi2_weighted * m / n
-    return chi2 + 2.0 * k, chi2 + k * math.log(m)
 
 
 def structure_sentence(data, residual, sigma) -> str:

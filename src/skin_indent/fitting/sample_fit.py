@@ -18,62 +18,30 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..inverse import IdentificationResult
 from ..measurement.scale import display_units
 from ..runtime.json_io import jsonable
-from .knowledge import DETERMINED_BY
-from .rung import evidence, reported_correlations
+from .result import FitResult, ScoredResult, curve_summaries, knowledge_of
+from .rung import reported_correlations
 from .surfaces import interpolation_flags
 from .scale_checks import MISFIT_FLAG, contact_points, depth_ratio_flags, modulus_flags, points_flags, undetermined_flags
 
 
 @dataclass(frozen=True, eq=False)
-class SampleFit(IdentificationResult):
+class SampleFit(FitResult):
     """A model fitted to several curves of one sample.
+
+    Everything of every fit (:class:`~skin_indent.fitting.result.FitResult`: the model, each curve's
+    summary in ``curves``, flags, notes, priors, error model, provenance), with each curve's points.
 
     Attributes
     ----------
-    model : str
-        ``neo-hooke`` plus ``+effect`` for each effect.
-    curves : list of dict
-        Per curve, in input order: ``data`` (its source), ``n_points``, ``radius_mm``,
-        ``radius_source``, ``noise_mN``, ``noise_source``, ``rms_mN``, ``misfit`` (RMS over
-        the noise), ``white``, ``contact_mode``, ``contact_point_mm`` and its sd (None
-        where the curve starts in contact), ``baseline_mN``.
     prepared : list of PreparedCurve
     prediction_mN : list of ndarray
         The model's force at each curve's points (mN).
-    flags : tuple of str
-        Why the numbers may not be trusted (as :class:`~skin_indent.fitting.CurveFit`'s).
-    notes : list of str
-    priors : dict
-        Per parameter given a prior: prior, posterior, how much the data narrowed it.
-    error_model : dict
-        How the chi-square and BIC weigh each point (each curve's noise, the model error).
-    provenance : dict
     """
 
-    model: str = "neo-hooke"
-    curves: list = field(default_factory=list)
     prepared: list = field(default_factory=list)
     prediction_mN: list = field(default_factory=list)
-    flags: tuple = ()
-    notes: list = field(default_factory=list)
-    priors: dict = field(default_factory=dict)
-    error_model: dict = field(default_factory=dict)
-    provenance: dict = field(default_factory=dict, repr=False)
-    #: ``((name, name, r), ...)`` under the names ``parameters`` uses (a chosen model's fit:
-    #: :func:`~skin_indent.fitting.rung.reported_correlations`); None: the fit's own coordinates
-    correlations: tuple | None = None
-
-    def correlation_pairs(self) -> list:
-        """The correlations :meth:`report` lists, under the names ``parameters`` uses."""
-        return super().correlation_pairs() if self.correlations is None else list(self.correlations)
-
-    @property
-    def trusted(self) -> bool:
-        """Converged and no flag."""
-        return self.success and not self.flags
 
     @property
     def rms_of_curves(self) -> list[float]:
@@ -82,11 +50,7 @@ class SampleFit(IdentificationResult):
 
     def to_dict(self) -> dict:
         out = super().to_dict()
-        out.update({"model": self.model, "rms_mN": self.rms_of_curves, "rms_all_mN": self.rms_mN,
-                    "curves": [dict(c) for c in self.curves], "flags": list(self.flags), "notes": list(self.notes),
-                    "priors": dict(self.priors), "error_model": dict(self.error_model),
-                    "provenance": dict(self.provenance),
-                    "correlations": [{"a": a, "b": b, "r": r} for a, b, r in self.correlation_pairs()]})
+        out.update({"rms_mN": self.rms_of_curves, "rms_all_mN": self.rms_mN})
         return jsonable(out)
 
     def report(self, digits: int = 5, units=None) -> str:
@@ -123,42 +87,22 @@ def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
     flags = list(rung.flags)  # how the fit ended (fitting.ended), as the ladder shows it
     flags += modulus_flags(rung.parameters.get("E_kPa", math.nan))
     flags += interpolation_flags(rung.bound_model, rung.x)
-    curves, predictions = [], []
-    for (k, c, noise, sl, params), white in zip(fitter.parts(rung), rung.curve_white):
-        r = np.asarray(rung.residuals_mN)[sl]
-        rms = float(np.sqrt(np.mean(r**2)))
-        contact = float(params.get("offset_mm", c.contact_guess_mm if c.contact_mode != "origin" else 0.0))
-        name = f"offset_mm[{k + 1}]"
-        sd = rung.std.get(name)
-        curves.append({"data": c.source, "n_points": c.n, "radius_mm": float(c.radius_mm),
-                       "radius_source": c.radius_source, "noise_mN": float(noise), "noise_source": noise_sources[k],
-                       "rms_mN": rms, "misfit": rms / noise, "white": bool(white), "contact_mode": c.contact_mode,
-                       "contact_point_mm": contact, "contact_point_std_mm": None if sd is None else float(sd),
-                       "baseline_mN": c.baseline_mN})
-        predictions.append(np.asarray(rung.prediction_mN)[sl])
+    curves = curve_summaries(rung, fitter, noise_sources)
+    predictions = [np.asarray(rung.prediction_mN)[sl] for sl in fitter.data.slices]
+    for k, (c, cv) in enumerate(zip(fitter.curves, curves)):
         where = f"curve {k + 1} ({c.source}): "
-        if rms / noise > MISFIT_FLAG:
-            flags.append(f"{where}misfit {rms / noise:.3g} x the noise: the model does not describe this curve and "
+        if cv["misfit"] > MISFIT_FLAG:
+            flags.append(f"{where}misfit {cv['misfit']:.3g} x the noise: the model does not describe this curve and "
                          "the parameters are not to be trusted")
-        flags += depth_ratio_flags(float((np.max(c.depth_mm) - contact) / c.radius_mm), float(c.radius_mm), where)
+        flags += depth_ratio_flags(float((np.max(c.depth_mm) - cv["contact_point_mm"]) / c.radius_mm),
+                                   float(c.radius_mm), where)
     n_contact = sum(contact_points(c, cv["contact_point_mm"]) for c, cv in zip(fitter.curves, curves))
     flags += points_flags(n_contact, int(rung.n_free))
     flags += undetermined_flags(rung.parameters, rung.std, list(rung.std),
                                 tuple(rung.at_bounds) + tuple(n for e in rung.ended for n in e.parameters))
-    for name, s in rung.priors.items():
-        if s["in_tension"]:
-            flags.append(f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
-                         f"({s['tension_sd']:.1f} combined sd apart)")
-    notes = [f"curve {k + 1} ({c.source}): {n}" for k, c in enumerate(fitter.curves) for n in c.notes]
-    notes += [f"{name} held at {v:g}" for name, v in fitter.fixed.items() if name in rung.parameters]
-    for name, s in rung.priors.items():
-        notes.append(f"{name}: prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g}, posterior {s['posterior']:.4g} "
-                     f"+- {s['posterior_sd']:.2g} (sd x {s['narrowed']:.2f}: {DETERMINED_BY[s['determined_by']]})")
-    n, k = fitter.data.n, rung.n_free
-    aic, bic = evidence(rung.chi2_weighted, k, n)
-    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(IdentificationResult)}
-    base.update(chi2=rung.chi2_weighted, aic=aic, bic=bic)
+    known_flags, known_notes = knowledge_of(rung, fitter)
+    notes = [f"curve {k + 1} ({c.source}): {n}" for k, c in enumerate(fitter.curves) for n in c.notes] + known_notes
+    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
     return SampleFit(**base, model=rung.model, curves=curves, prepared=list(fitter.curves), prediction_mN=predictions,
-                     flags=tuple(dict.fromkeys(flags)), notes=notes, priors=dict(rung.priors),
+                     flags=tuple(dict.fromkeys(flags + known_flags)), notes=notes, priors=dict(rung.priors),
                      error_model=fitter.error_model(), correlations=reported_correlations(rung))
-

@@ -126,9 +126,10 @@ class IdentificationResult:
     n_points : int
     chi2 : float
         ``sum((residual / noise_mN)^2)``.
-    aic, bic : float
-        See the module notes (Gaussian likelihood, sigma estimated by ML):
-        :attr:`BIC_FORMULA`.
+    aic_ml, bic_ml : float
+        See the module notes (Gaussian likelihood, sigma estimated by maximum likelihood):
+        :attr:`BIC_ML_FORMULA`. Not the ``bic`` of a fit's result, which weighs the residual by the
+        error model (:data:`skin_indent.fitting.error_model.BIC_FORMULA`).
     method : {"ekf-paper", "ekf", "lsq"}
     iterations : int
         Sweeps through the curve for the filters; Jacobian evaluations (= TRF
@@ -161,8 +162,8 @@ class IdentificationResult:
     noise_mN: float
     n_points: int
     chi2: float
-    aic: float
-    bic: float
+    aic_ml: float
+    bic_ml: float
     method: str
     iterations: int
     status: int
@@ -172,8 +173,17 @@ class IdentificationResult:
     covariance_source: str = "jacobian"
     info: Mapping[str, Any] = field(default_factory=dict)
 
-    #: how ``bic`` is computed (results of other kinds name their own)
-    BIC_FORMULA = "n ln(2 pi RSS / n) + n + (p + 1) ln n (Gaussian, noise by maximum likelihood)"
+    #: how ``bic_ml`` is computed
+    BIC_ML_FORMULA = "n ln(2 pi RSS / n) + n + (p + 1) ln n (Gaussian, noise by maximum likelihood)"
+
+    def criteria(self) -> dict:
+        """The information criteria this result reports, by name (a fit's result: its ``aic`` and ``bic``
+        against the error model, with their formula)."""
+        return {"aic_ml": self.aic_ml, "bic_ml": self.bic_ml, "bic_ml_formula": self.BIC_ML_FORMULA}
+
+    def criteria_line(self, digits: int = 5) -> str:
+        """The line of :meth:`report` that gives the information criteria."""
+        return f"    AIC_ml     = {self.aic_ml:.{digits}g}, BIC_ml = {self.bic_ml:.{digits}g}"
 
     @property
     def success(self) -> bool:
@@ -206,9 +216,7 @@ class IdentificationResult:
             "n_points": self.n_points,
             "chi2": self.chi2,
             "redchi": self.redchi,
-            "aic": self.aic,
-            "bic": self.bic,
-            "bic_formula": self.BIC_FORMULA,
+            **self.criteria(),
             "iterations": self.iterations,
             "status": self.status,
             "success": self.success,
@@ -235,7 +243,7 @@ class IdentificationResult:
             f"    rms        = {self.rms_mN * u.per_mN:.{digits}g} {u.force}, noise sigma = "
             f"{self.noise_mN * u.per_mN:.{digits}g} {u.force}",
             f"    chi-square = {self.chi2:.{digits}g}, reduced = {self.redchi:.{digits}g}",
-            f"    AIC        = {self.aic:.{digits}g}, BIC = {self.bic:.{digits}g}",
+            self.criteria_line(digits),
             f"[[Parameters]]  (std from {self.covariance_source})",
         ]
         width = max(len(u.name(n)) for n in self.parameters)
@@ -317,7 +325,7 @@ def build_result(problem, x: np.ndarray, *, method: str, iterations: int, status
     cov = cov_jac if covariance is None else np.asarray(covariance, dtype=float).reshape(p, p)
     with np.errstate(invalid="ignore"):
         sd = np.sqrt(np.where(np.diag(cov) >= 0, np.diag(cov), np.nan))
-    aic, bic = information_criteria(rss, n, p, scale)
+    aic_ml, bic_ml = information_criteria(rss, n, p, scale)
     extra = dict(info or {})
     extra.setdefault("covariance_jacobian", cov_jac)
     extra.setdefault("residual_sigma_mN", s_resid)
@@ -333,8 +341,8 @@ def build_result(problem, x: np.ndarray, *, method: str, iterations: int, status
         noise_mN=sigma,
         n_points=n,
         chi2=rss / sigma**2,
-        aic=aic,
-        bic=bic,
+        aic_ml=aic_ml,
+        bic_ml=bic_ml,
         method=method,
         iterations=int(iterations),
         status=int(status),
