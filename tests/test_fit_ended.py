@@ -318,3 +318,32 @@ def test_a_fit_stopped_by_its_budget_resumed_from_its_end_reaches_the_unbudgeted
     assert cost(on) <= cost(full) * (1 + 1e-6)
     for name in ("E_kPa", "nu"):
         assert abs(on.parameters[name] - full.parameters[name]) < 1e-3 * full.std[name]
+
+
+def test_a_fit_at_a_physical_limit_says_it_is_a_limit_not_a_value(analytic):
+    """nu at the nearly incompressible end of the fitted range: not a flag (the data may rightly reach it),
+    but a note that the value is a bound; a rigid base alike; nothing for a fit inside its ranges."""
+    from types import SimpleNamespace
+
+    from skin_indent.fitting.ended import limit_notes
+    from skin_indent.fitting.model_fit import prepare_curve
+    from skin_indent.models import ComposedModel
+
+    m = prepare_curve(_curve())
+    model = ComposedModel(_Core(6.22), (), m)
+    top = float(model.bounds[1][list(model.parameter_names).index("nu")])
+    x = np.array([5.0, top])
+
+    def result(at):
+        return SimpleNamespace(info={"active_bounds": at}, free_names=("E_kPa", "nu"),
+                               parameters=dict(zip(model.parameter_names, x)))
+
+    notes = limit_notes(result(("nu",)), model, x)
+    assert len(notes) == 1 and "nu = " in notes[0] and "nearly incompressible" in notes[0] and "bound" in notes[0]
+    assert limit_notes(result(()), model, x) == []
+    layer = ComposedModel(_LayerCore(6.22), ("layer",), m)
+    rigid = np.array([10.0, 0.45, 1.2, 0.0])  # compliance 0: a rigid base
+    at_rigid = SimpleNamespace(info={"active_bounds": ("compliance",)}, free_names=layer.parameter_names,
+                               parameters=dict(zip(layer.parameter_names, rigid)))
+    notes = limit_notes(at_rigid, layer, rigid)
+    assert len(notes) == 1 and notes[0].startswith("ratio") and "rigid base" in notes[0]

@@ -291,6 +291,25 @@ def how_it_ended(result, model=None, x=None, *, limits: bool = True) -> list[End
     return out
 
 
+def limit_notes(result, model=None, x=None) -> list[str]:
+    """What a fit that stopped at a physical limit found (:func:`~skin_indent.models.composed.at_physical_limit`):
+    one sentence per parameter, saying it is a limit the data reach, not a measured value."""
+    if model is None or not hasattr(model, "model_parameters"):
+        return []
+    if x is None:
+        x = np.array([result.parameters[n] for n in model.parameter_names], dtype=float)
+    out = []
+    for name in (result.info or {}).get("active_bounds", ()):
+        if name in result.free_names and at_physical_limit(model, x, name):
+            shown, value = reported_name(model, x, name)
+            out.append(UnitText("{name} = " + _value_field(value) + " at the end of its range that is a physical "
+                                    "limit (" + ("a rigid base" if shown.startswith("ratio") else
+                                                 "the nearly incompressible end") + "): the data reach the limit; "
+                                    "read it as a bound, not a measured value",
+                                    name=Name(shown), value=Quantity(value, shown)))
+    return out
+
+
 def ending_flags(result, model=None, x=None, *, limits: bool = True) -> list[str]:
     """The flags of :func:`how_it_ended`, as every output of a fit shows them."""
     return [e.text for e in how_it_ended(result, model, x, limits=limits)]

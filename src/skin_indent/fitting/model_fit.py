@@ -21,6 +21,7 @@ import numpy as np
 from ..effects import CONTACT_POINT, parse_effects
 from ..measurement import SEGMENTS, CurveSet, MeasurementError, PreparedCurve, prepare
 from .curve import CurveFit, quality, with_scale_flags
+from .ended import limit_notes
 from .error_model import NOISE_POINTS, curve_noise, per_curve, sample_noise  # noqa: F401 - the diagnosis reads them here
 from .identification import hertz_modulus, run_method
 from .multistart import Fitter
@@ -207,7 +208,7 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     known_flags, known_notes = knowledge_of(rung, fitter)
     flags += known_flags
     flags += interpolation_flags(rung.bound_model, rung.x)
-    notes = list(prepared.notes) + known_notes
+    notes = list(prepared.notes) + known_notes + limit_notes(rung, rung.bound_model, rung.x)
     base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
     result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
                       contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,

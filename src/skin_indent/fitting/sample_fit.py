@@ -20,6 +20,7 @@ import numpy as np
 
 from ..measurement.scale import display_units
 from ..runtime.json_io import jsonable
+from .ended import limit_notes
 from .result import FitResult, ScoredResult, curve_summaries, knowledge_of
 from .rung import reported_correlations
 from .surfaces import interpolation_flags
@@ -102,6 +103,7 @@ def sample_fit_of(rung, fitter, *, noise_sources) -> SampleFit:
                                 tuple(rung.at_bounds) + tuple(n for e in rung.ended for n in e.parameters))
     known_flags, known_notes = knowledge_of(rung, fitter)
     notes = [f"curve {k + 1} ({c.source}): {n}" for k, c in enumerate(fitter.curves) for n in c.notes] + known_notes
+    notes += limit_notes(rung, rung.bound_model, rung.x)
     base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
     return SampleFit(**base, model=rung.model, curves=curves, prepared=list(fitter.curves), prediction_mN=predictions,
                      flags=tuple(dict.fromkeys(flags + known_flags)), notes=notes, priors=dict(rung.priors),
