@@ -185,6 +185,20 @@ def test_the_demo_curves_surfaces_are_all_shipped(name, radius, tmp_path, monkey
 SIMILARITY_TOLERANCE = shipped.TOLERANCE / 10
 
 
+def test_what_the_package_ships_does_not_depend_on_its_verification(tmp_path):
+    """The choice of a curve's surfaces (the demo's own, else the dimensionless ones) is the same
+    whether or not the shipped runs are verified for the installed forward model."""
+    copy = tmp_path / "surfaces"
+    shutil.copytree(shipped.SHIPPED_DIR, copy)
+    index = json.loads((copy / shipped.INDEX).read_text())
+    index["verified_code"] = ["aaaaaaaaaaaa"]
+    (copy / shipped.INDEX).write_text(json.dumps(index))
+    grid, settings = _unit_surface()
+    assert shipped.ships(settings, grid.depth_mm, directory=copy)
+    assert shipped.lookup(settings, grid.depth_mm, float(grid.nu[0]), directory=copy) is None
+    assert not shipped.ships(settings, grid.depth_mm[:-1], directory=copy)
+
+
 @pytest.mark.parametrize("effects, values", [(("layer",), {"thickness_mm": 0.24, "ratio": math.inf}),
                                              (("layer",), {"thickness_mm": 0.8, "ratio": 1 / 0.3}),
                                              (("stiffening",), {"C20_kPa": 1.6})])

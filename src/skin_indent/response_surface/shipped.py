@@ -55,7 +55,7 @@ from ._store import npz_bytes
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SHIPPED_DIR", "TOLERANCE", "lookup", "verify", "stamp", "export_cache", "physics_key"]
+__all__ = ["SHIPPED_DIR", "TOLERANCE", "lookup", "ships", "verify", "stamp", "export_cache", "physics_key"]
 
 #: where the shipped surfaces are (package data)
 SHIPPED_DIR = Path(__file__).resolve().parent.parent / "data" / "surfaces"
@@ -154,6 +154,14 @@ def lookup(settings: Mapping, depth_mm, nu: float, *, key: str | None = None,
     """
     return _shipped(str(SHIPPED_DIR if directory is None else directory)).find(
         settings, np.asarray(depth_mm, dtype=float), nu, key)
+
+
+def ships(settings: Mapping, depth_mm, *, directory: Path | None = None) -> bool:
+    """Whether the package ships the runs of a surface with these settings (``code_version``
+    aside) and depths: a property of the package, whether or not they are verified for the
+    installed forward model (:func:`lookup` says that)."""
+    key = physics_key(settings, np.asarray(depth_mm, dtype=float))
+    return key in _shipped(str(SHIPPED_DIR if directory is None else directory)).by_key
 
 
 # ------------------------------------------------------------------ verification
