@@ -1,12 +1,16 @@
 #!/usr/bin/env python
 """Compute, export and verify the response surfaces shipped with the package (issue 39).
 
-    python benchmarks/build_shipped_surfaces.py build  --cache DIR [--workers 2]
-    python benchmarks/build_shipped_surfaces.py export --cache DIR
+    python benchmarks/build_shipped_surfaces.py build  --cache DIR [--workers 2] [--dimensionless]
+    python benchmarks/build_shipped_surfaces.py export --cache DIR [--keep]
     python benchmarks/build_shipped_surfaces.py verify [--stamp] [--sample 2]
 
 ``build`` makes, into the run cache ``DIR`` (a fresh folder), every surface the default
-workflows ask for on the bundled skin curves: the neo-Hookean half-space at unit radius
+workflows ask for: the dimensionless surfaces of a skin curve's diagnosis at any radius
+(:func:`skin_indent.fitting.surfaces.unit_core`: the neo-Hookean base, layer and stiffening
+surfaces at R = 1 mm, coarse mesh, for every depth ceiling h/R of ``EFFECT_CEILINGS``; only
+these with ``--dimensionless``, exported with ``--keep`` to leave the other shipped files as
+they are), and on the bundled skin curves: the neo-Hookean half-space at unit radius
 (``surface_for``; depth ceilings h/R = 0.1 and 0.2 on the medium mesh: every radius by
 similarity) and, for each of the demo's two curves (``forearm_like.csv``, R = 6.22 mm and
 ``forearm_like_R3.11mm.csv``, R = 3.11 mm), what the diagnosis's fits on surfaces ask for
@@ -45,6 +49,30 @@ CURVES = (("forearm_like.csv", 6.22), ("forearm_like_R3.11mm.csv", None))
 UNIT_CEILINGS = (0.1, 0.2)
 
 
+#: the order the dimensionless surfaces are made in (the bundled R = 4 mm curve's ceiling first, then
+#: ceilings about sqrt(2) apart, then those between)
+FIRST_CEILINGS = (0.17, 0.12, 0.085, 0.24, 0.06, 0.1, 0.14, 0.2, 0.07, 0.05, 0.28)
+
+
+def build_dimensionless(cache: Path, workers: int | None) -> None:
+    """Make the runs of the dimensionless surfaces (:func:`skin_indent.fitting.surfaces.unit_core`:
+    the neo-Hookean base, layer and stiffening surfaces at R = 1 mm for every depth ceiling
+    of ``EFFECT_CEILINGS``, coarse mesh) into the run cache ``cache``."""
+    from skin_indent.effects import ELASTIC, EFFECTS, effect
+    from skin_indent.fitting.surfaces import EFFECT_CEILINGS, unit_core
+    from skin_indent.runtime.context import Context
+
+    context = Context(cache_dir=cache, workers=workers, progress=None)
+    t0 = time.perf_counter()
+    elastic = [name for name in EFFECTS if effect(name).stage == ELASTIC]
+    order = [c for c in FIRST_CEILINGS if c in EFFECT_CEILINGS]
+    for ceiling in order + [c for c in EFFECT_CEILINGS if c not in order]:
+        for key in ((), *((e,) for e in elastic)):
+            unit_core(key, ceiling, context=context)
+            print(f"dimensionless h/R <= {ceiling:g}, {'+'.join(('neo-hooke',) + key)}: "
+                  f"{time.perf_counter() - t0:.0f} s", flush=True)
+
+
 def build(cache: Path, workers: int | None) -> None:
     """Make the shipped surfaces' runs into the run cache ``cache`` (see the module docstring)."""
     from skin_indent.data import bundled_path
@@ -54,6 +82,7 @@ def build(cache: Path, workers: int | None) -> None:
     from skin_indent.measurement import load_csv
     from skin_indent.runtime.context import Context
 
+    build_dimensionless(cache, workers)
     context = Context(cache_dir=cache, workers=workers, progress=None)
     t0 = time.perf_counter()
     for ceiling in UNIT_CEILINGS:
@@ -77,15 +106,19 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int, default=None)
     p.add_argument("--stamp", action="store_true", help="verify: add the installed digest if the forces hold")
     p.add_argument("--sample", type=int, default=None, help="verify: runs recomputed per surface")
+    p.add_argument("--keep", action="store_true",
+                   help="export: keep the shipped files the cache does not make again (same forward model)")
+    p.add_argument("--dimensionless", action="store_true",
+                   help="build: only the dimensionless surfaces (export them with --keep)")
     args = p.parse_args(argv)
     if args.action == "build":
-        build(args.cache, args.workers)
+        (build_dimensionless if args.dimensionless else build)(args.cache, args.workers)
         return 0
     from skin_indent.models.effect_surface import recompute_shipped
     from skin_indent.response_surface import shipped
 
     if args.action == "export":
-        index = shipped.export_cache(args.cache, shipped.SHIPPED_DIR)
+        index = shipped.export_cache(args.cache, shipped.SHIPPED_DIR, keep=args.keep)
         size = sum(p.stat().st_size for p in shipped.SHIPPED_DIR.iterdir() if p.is_file())
         print(f"exported {len(index['surfaces'])} surfaces to {shipped.SHIPPED_DIR} ({size / 2**20:.2f} MiB)")
         return 0

@@ -25,6 +25,7 @@ runs refuses to evaluate and says which.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 import logging
@@ -44,7 +45,8 @@ from ..runtime.log import progress_bar
 
 log = logging.getLogger(__name__)
 
-__all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve", "recompute_shipped", "unit_curve_of"]
+__all__ = ["EffectAxis", "EffectSurface", "default_axes", "model_unit_curve", "recompute_shipped", "scaled_surface",
+           "unit_curve_of"]
 
 
 
@@ -107,6 +109,8 @@ class EffectSurface(SurfaceCore):
         self._stack = None
         self._node_coords = None
         self.failures = {}
+        #: ``{"radius_mm": R0, "factor": k}`` of a surface scaled by :meth:`at_radius`, else None
+        self.similarity = None
         for idx in itertools.product(*(range(len(a.nodes)) for a in self.axes)):
             s = surfaces[idx]
             if s.failures:
@@ -151,12 +155,7 @@ class EffectSurface(SurfaceCore):
         depth = np.array(grid.depth_mm)
         pending = []
         for idx in np.ndindex(shape):
-            unit = tuple((a.name, float(a.nodes[i])) for a, i in zip(axes, idx))
-            params = tuple(sorted(model_parameters(effects, dict(unit)).items()))
-            settings = {**default_settings(radius_mm=radius_mm, mesh=mesh),
-                        "model": model_name(effects),
-                        "unit_curve": "skin_indent.models.effect_surface.model_unit_curve",
-                        "unit_parameters": [[k, repr(v)] for k, v in params]}
+            settings, params = cls._node(effects, axes, idx, radius_mm, mesh)
             curve = functools.partial(model_unit_curve, effects=effects, parameters=params,
                                       radius_mm=float(radius_mm), mesh=mesh)
             try:  # a cached surface (or one whose runs are all cached) needs no executor
@@ -194,6 +193,59 @@ class EffectSurface(SurfaceCore):
             if owned:
                 ex.close()
         return cls(effects, axes, surfaces, radius_mm)
+
+    @staticmethod
+    def _node(effects, axes, idx, radius_mm: float, mesh: str) -> tuple[dict, tuple]:
+        """The run settings and unit parameters of the sub-surface at node ``idx`` of ``axes``."""
+        unit = tuple((a.name, float(a.nodes[i])) for a, i in zip(axes, idx))
+        params = tuple(sorted(model_parameters(effects, dict(unit)).items()))
+        settings = {**default_settings(radius_mm=radius_mm, mesh=mesh),
+                    "model": model_name(effects),
+                    "unit_curve": "skin_indent.models.effect_surface.model_unit_curve",
+                    "unit_parameters": [[k, repr(v)] for k, v in params]}
+        return settings, params
+
+    @classmethod
+    def node_settings(cls, effects, axes, radius_mm: float, mesh: str) -> dict:
+        """The run settings of the sub-surface at the centre node of ``axes`` (what the surface's
+        runs are found by, e.g. among the shipped ones)."""
+        return cls._node(tuple(effects), axes, tuple(len(a.nodes) // 2 for a in axes), radius_mm, mesh)[0]
+
+    # ------------------------------------------------------------ similarity
+    def at_radius(self, radius_mm: float, *, E_kPa=None) -> "EffectSurface":
+        """The same surface for another sphere radius, by exact similarity.
+
+        No law of the models has a length scale and the mesh is scaled by sqrt(R h_max)
+        (layer interfaces and a rigid base with it), so with every length scaled by
+        k = R / R0 (depths, and the axes in mm: a layer's thickness) the force scales by k^2
+        (kPa x mm^2 = mN): F(k h; E, nu, k T, ratio, C20/E; k R0) = k^2 F(h; ...; R0). Checked
+        against direct runs at k = 2 and 4 (``tests/test_shipped_surfaces.py``). Axes in mm
+        are interpolated in log coordinates (a shift of log k) and depths by an affine-invariant
+        rule, so the scaled surface interpolates exactly as the original.
+
+        Parameters
+        ----------
+        radius_mm : float
+            Sphere radius R (mm), > 0.
+        E_kPa : array_like, optional
+            E nodes (kPa) of the returned surface: the bounds of E of a fit (F is exactly
+            linear in E). Default: the original's.
+        """
+        R = float(radius_mm)
+        if not (np.isfinite(R) and R > 0):
+            raise ValueError(f"radius must be a finite number > 0 mm, got {radius_mm}")
+        k = R / self.radius_mm
+        for a in self.axes:
+            if a.name.endswith("_mm") and a.coordinate != "log":
+                raise ValueError(f"the {a.name} axis is not interpolated in log coordinates: no similarity")
+        axes = tuple(dataclasses.replace(a, nodes=tuple(float(v) * k for v in a.nodes)) if a.name.endswith("_mm")
+                     else a for a in self.axes)
+        surfaces = np.empty(self.surfaces.shape, dtype=object)
+        for idx in np.ndindex(self.surfaces.shape):
+            surfaces[idx] = scaled_surface(self.surfaces[idx], k, E_kPa)
+        out = type(self)(self.effects, axes, surfaces, R)
+        out.similarity = {"radius_mm": self.radius_mm, "factor": k}
+        return out
 
     # ------------------------------------------------------------ evaluation
     def _check(self, theta):
@@ -292,6 +344,20 @@ class EffectSurface(SurfaceCore):
             down[i] = max(theta[i] - step, lo[i])
             J[:, i] = (self.force(depth_mm, up) - self.force(depth_mm, down)) / (up[i] - down[i])
         return J
+
+
+def scaled_surface(surface: ResponseSurface, factor: float, E_kPa=None) -> ResponseSurface:
+    """``surface`` with depths x ``factor`` and forces x ``factor``^2 (every length of its model
+    scaled by ``factor``: :meth:`EffectSurface.at_radius`), on the E nodes ``E_kPa`` (default its own)."""
+    g = surface.grid
+    E = g.E_kPa if E_kPa is None else np.asarray(E_kPa, dtype=float)
+    k = float(factor)
+    origin = surface.settings.get("similarity", {"radius_mm": surface.settings.get("radius_mm"), "hash": surface.hash})
+    settings = {**surface.settings, "radius_mm": float(surface.settings.get("radius_mm", 1.0)) * k,
+                "similarity": origin}
+    return type(surface)(SurfaceGrid(g.depth_mm * k, E, g.nu), surface.unit_forces * k**2, settings=settings,
+                         failures=surface.failures, method=surface.method, depth_interp=surface.depth_interp,
+                         scaling=surface.scaling)
 
 
 def _cell_centre(nodes, x: float) -> float:

@@ -9,8 +9,9 @@ of those surfaces are computed once (``benchmarks/build_shipped_surfaces.py``) a
   depths) its settings without ``code_version``, its nu and the file and arrays that hold its
   forces; ``made_with``: the package version and the forward-model source digest that made
   them; ``verified_code``: the source digests the forces were verified against;
-- one ``.npz`` per family of surfaces (a model at one radius and mesh): depths, nu and unit
-  forces (mN at E = 1 kPa) of every surface, float64, as the runs returned them.
+- one ``.npz`` per family of surfaces (a model at one radius and mesh, e.g. the dimensionless
+  layer surfaces of every depth ceiling at R = 1 mm): depths, nu and unit forces (mN at
+  E = 1 kPa) of every surface, float64, as the runs returned them.
 
 Reading
 -------
@@ -54,7 +55,7 @@ from ._store import npz_bytes
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SHIPPED_DIR", "TOLERANCE", "lookup", "verify", "stamp", "export_cache", "physics_key"]
+__all__ = ["SHIPPED_DIR", "TOLERANCE", "lookup", "ships", "verify", "stamp", "export_cache", "physics_key"]
 
 #: where the shipped surfaces are (package data)
 SHIPPED_DIR = Path(__file__).resolve().parent.parent / "data" / "surfaces"
@@ -155,6 +156,14 @@ def lookup(settings: Mapping, depth_mm, nu: float, *, key: str | None = None,
         settings, np.asarray(depth_mm, dtype=float), nu, key)
 
 
+def ships(settings: Mapping, depth_mm, *, directory: Path | None = None) -> bool:
+    """Whether the package ships the runs of a surface with these settings (``code_version``
+    aside) and depths: a property of the package, whether or not they are verified for the
+    installed forward model (:func:`lookup` says that)."""
+    key = physics_key(settings, np.asarray(depth_mm, dtype=float))
+    return key in _shipped(str(SHIPPED_DIR if directory is None else directory)).by_key
+
+
 # ------------------------------------------------------------------ verification
 @dataclass(frozen=True)
 class Check:
@@ -198,11 +207,12 @@ def relative_difference(shipped: np.ndarray, recomputed: np.ndarray) -> float:
 def sample_runs(sample: int = 1, directory: Path | None = None) -> list[tuple]:
     """``(label, settings, depth_mm, nu, shipped forces)`` of ``sample`` runs of every family (file).
 
-    A family is the surfaces of one model, radius, mesh and depth range (one surface, or one per
-    node of an effect surface's axes). Its surfaces are taken at evenly spaced places of its list
-    (in order of their unit parameters: for ``sample=1`` the middle one, the centre node of a
-    layer surface's 7 x 7; for 2 the first and the last), each at its middle nu node: the same
-    runs every time, so that the test and the script check the same.
+    A family is the surfaces of one model, radius and mesh, as exported (one or several depth
+    ranges; one surface per depth range, or one per node of an effect surface's axes). Its
+    surfaces are taken at evenly spaced places of its list (in order of their unit parameters,
+    then depth range: for ``sample=1`` the middle one, e.g. the centre node of a layer
+    surface's 7 x 7; for 2 the first and the last), each at its middle nu node: the same runs
+    every time, so that the test and the script check the same.
     """
     d = Path(SHIPPED_DIR if directory is None else directory)
     shipped = _Shipped(d)
@@ -272,15 +282,18 @@ def _label(settings: Mapping, depth_mm: np.ndarray) -> str:
 
 
 def _order(run) -> tuple:
-    """Runs of a family in order of their unit parameters (numbers; names sorted), e.g. (ratio, thickness)."""
-    return tuple(float(v) for _, v in run[0].get("unit_parameters", []))
+    """Runs of a family in order of their unit parameters (numbers; names sorted), e.g. (ratio, thickness),
+    then of their deepest depth."""
+    return (*(float(v) for _, v in run[0].get("unit_parameters", [])), float(run[1][-1]))
 
 
-def export_cache(cache_dir: Path, directory: Path = SHIPPED_DIR) -> dict:
+def export_cache(cache_dir: Path, directory: Path = SHIPPED_DIR, *, keep: bool = False) -> dict:
     """Write every complete surface run set of the run cache ``cache_dir`` as shipped surfaces.
 
     The runs' forward-model digest (their ``code_version``) is recorded as ``made_with`` and
-    as the first verified digest: the runs were made by that code.
+    as the verified digest: the runs were made by that code. With ``keep``, the families
+    (files) already shipped that the cache does not make again stay, if that digest is one
+    they are verified for (else a ValueError: rebuild them all).
     """
     from skin_indent import __version__
 
@@ -298,16 +311,26 @@ def export_cache(cache_dir: Path, directory: Path = SHIPPED_DIR) -> dict:
             continue
         codes.add(expected_code_of(settings))
         bare = {k: v for k, v in settings.items() if k != "code_version"}
-        family = f"{bare['model']}_R{float(bare['radius_mm']):g}mm_{bare['mesh']}_to{float(depth[-1]):g}mm"
+        family = f"{bare['model']}_R{float(bare['radius_mm']):g}mm_{bare['mesh']}"
         families.setdefault(family, []).append((bare, depth, np.array(done), np.array(forces)))
     if len(codes) != 1:
         raise ValueError(f"the runs of {cache_dir} were made by {len(codes)} forward-model sources: "
                          "export the runs of one build")
     code = codes.pop()
+    made = {family.replace("+", "-").replace(" ", "-") + ".npz" for family in families}
+    kept_surfaces, kept_files = [], {}
+    if keep:
+        old_index = _Shipped(directory).index
+        kept_files = {n: h for n, h in old_index.get("files", {}).items() if n not in made}
+        if kept_files and code not in old_index.get("verified_code", []):
+            raise ValueError(f"the shipped surfaces are not verified for src.{code}, which made the runs of "
+                             f"{cache_dir}: rebuild them all, or verify and stamp them first")
+        kept_surfaces = [e for e in old_index["surfaces"] if e["file"] in kept_files]
     directory.mkdir(parents=True, exist_ok=True)
     for old in directory.glob("*.npz"):
-        old.unlink()
-    surfaces, files = [], {}
+        if old.name not in kept_files:
+            old.unlink()
+    surfaces, files = list(kept_surfaces), dict(kept_files)
     for family, runs in sorted(families.items()):
         name = family.replace("+", "-").replace(" ", "-") + ".npz"
         arrays = {}
