@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from ..effects import model_name
 from ..measurement.preparation import SKIN_RADIUS_MM
 from ..measurement.scale import Quantity, UnitText, afm_scale
 from ..runtime.provenance import records_call
@@ -160,7 +161,7 @@ def paper_needed(data, *, fixed=None, radius_mm=None, model=None, priors=None) -
 
 def model_name_of(effects, several: bool) -> str:
     """How an error names the model of ``effects`` (and several curves)."""
-    name = "neo-hooke" + "".join(f"+{e}" for e in effects)
+    name = model_name(effects)
     return name + (" fitted to several curves" if several else "")
 
 
