@@ -24,8 +24,8 @@ from .rung import NO_STRUCTURE, Rung, evidence, reported_covariance, structure_s
 from .knowledge import held_coordinates, prior_rows, prior_summary
 from .scale_checks import check_points
 from .ended import how_it_ended, reported_message, stalled
-from .resume import cost as _cost, resumed
-from .starts import MAX_STARTS, screen, start_vectors
+from .resume import cost as _cost, first_fit, resumed
+from .starts import MAX_STARTS, same_body, screen, start_vectors
 from .surfaces import elastic_core
 
 log = logging.getLogger(__name__)
@@ -245,7 +245,8 @@ class Fitter:
         return parts[0] if len(parts) == 1 else JointModel(parts)
 
     def warm(self, effects: tuple):
-        """The fitted rung of the largest set of effects contained in ``effects`` (None: none fitted)."""
+        """The fitted rung of the largest set of effects contained in ``effects`` (None: none fitted);
+        of equal size, one of the same elastic body (:func:`~.starts.same_body`), else the first fitted."""
         want = sorted(effects)
         best = None
         for key, rung in list(self.fits.items()):  # a copy: fits in other threads add to it
@@ -257,8 +258,9 @@ class Fitter:
                     rest.remove(e)
             except ValueError:
                 continue
-            if best is None or len(key) > len(best.effects):
-                best = rung
+            if best is None or len(key) > len(best.effects) or (
+                    len(key) == len(best.effects) and same_body(rung, effects) and not same_body(best, effects)):
+                best = rung  # of equal size, the one of the same elastic body (starts.same_body)
         return best
 
     def prior_chi2(self, model, x) -> float:
@@ -347,30 +349,29 @@ class Fitter:
         log.info("fitting %s %s%s", model.name, "with finite elements in the loop" if looped else "on response surfaces",
                  f" to {len(self.curves)} curves of one sample" if self.joint else "")
         if looped:  # each evaluation is a finite-element run: screen the starts, stop at FE_TOL
-            # not from the nested start nor from starts equivalent to it: there the combination is
-            # the simpler model exactly (a second layer of the first one's modulus, or under a rigid
-            # base), a stationary point the fit does not leave (measured: it stops after 3
-            # evaluations at the simpler model's RMS)
+            # not from the nested start of an added elastic effect nor from starts equivalent to it:
+            # there the combination is the simpler model exactly (a second layer of the first one's
+            # modulus, or under a rigid base), a stationary point the fit does not leave (measured: it
+            # stops after 3 evaluations at the simpler model's RMS)
             nested = starts[0] if self.warm(key) is not None else None
-            starts = screen(self, model, starts, FE_PROBES, nested=nested)
             options = dict(ftol=FE_TOL, xtol=FE_TOL, gtol=1e-8, max_nfev=FE_MAX_EVALUATIONS)
-        elif SURFACE_MAX_EVALUATIONS is not None:
-            options = dict(max_nfev=SURFACE_MAX_EVALUATIONS)
-        best, first, still, still_at = None, None, None, None
-        for i, x0 in enumerate(starts):
-            try:
-                res = fit_least_squares(model, d.depth_mm, d.force_mN, x0, noise_mN=self.noise_mN, **known, **options)
-            except ValueError:  # a run of this start's fit failed: the next start
-                continue
-            if stalled(res, model):  # a stationary start: kept only if no start that moved does as well
-                if still is None or _cost(res) < _cost(still):
-                    still, still_at = res, i
-            elif best is None or _cost(res) < _cost(best):
-                best, first = res, i
-            if looped:
-                break
-        if still is not None and (best is None or _cost(best) > _cost(still) * (1 + FE_TOL)):
-            best, first = still, still_at
+            if nested is not None and same_body(self.warm(key), key):
+                # only effects outside the elastic body added to a body fitted in the loop (the contact
+                # points on two layers): from that optimum, no start of the body screened again; the
+                # screened starts only if the fit does not move from there
+                best, first = self._first_fit(model, [nested], known, options, looped)
+                if best is None or stalled(best, model):
+                    starts = screen(self, model, starts, FE_PROBES, nested=nested)
+                    best, first = self._first_fit(model, starts, known, options, looped, still=best)
+                else:
+                    starts = [nested]
+            else:
+                starts = screen(self, model, starts, FE_PROBES, nested=nested)
+                best, first = self._first_fit(model, starts, known, options, looped)
+        else:
+            if SURFACE_MAX_EVALUATIONS is not None:
+                options = dict(max_nfev=SURFACE_MAX_EVALUATIONS)
+            best, first = self._first_fit(model, starts, known, options, looped)
         noise = float(np.sqrt(np.mean(self.sigma(d.force_mN) ** 2)))  # with the model error
         if best is not None and best.status == 0:
             # stopped by its budget: on from where it got (measured: two layers on a rigid base
@@ -463,6 +464,11 @@ class Fitter:
                     reported_cov=reported_covariance(model, x, cov))
         self.fits[key] = rung
         return rung
+
+    def _first_fit(self, model, starts: list, known: dict, options: dict, looped: bool, still=None) -> tuple:
+        """:func:`~.resume.first_fit` on this fitter's points."""
+        return first_fit(model, self.data.depth_mm, self.data.force_mN, starts, noise_mN=self.noise_mN, known=known,
+                         options=options, looped=looped, still=still, tol=FE_TOL)
 
     def _resumed(self, model, result, known: dict, options: dict, early: bool = False):
         """:func:`~.resume.resumed` on this fitter's points (the fit's own ``known`` and ``options``)."""

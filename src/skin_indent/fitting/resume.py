@@ -14,8 +14,9 @@ import dataclasses
 import numpy as np
 
 from ..inverse import fit_least_squares
+from .ended import stalled
 
-__all__ = ["RESUMES", "cost", "resumed"]
+__all__ = ["RESUMES", "cost", "first_fit", "resumed"]
 
 #: a fit stopped by its budget goes on from where it got at most this many times while each restart
 #: lowers the cost by more than the fit's ``ftol``; one still stopped by its budget after them is
@@ -26,6 +27,54 @@ RESUMES = 3
 def cost(result) -> float:
     """What a fit minimises: the data's chi-square plus the priors' (their -2 ln posterior up to a constant)."""
     return float(result.chi2 + result.info.get("prior_chi2", 0.0))
+
+
+def first_fit(model, depth_mm, force_mN, starts: list, *, noise_mN, known: dict, options: dict, looped: bool,
+              still=None, tol: float = 1e-4) -> tuple:
+    """The fit from each start, or with the finite-element model in the loop from the first that can be
+    fitted (its runs converge): ``(best, its index in starts)``.
+
+    A fit that ends where it started (:func:`~.ended.stalled`) is kept only if no start that moved
+    ends as low (within ``tol`` of its cost); ``still`` is such a fit made before (index -1).
+
+    Parameters
+    ----------
+    model : ComposedModel or JointModel
+    depth_mm, force_mN : ndarray
+        The fitted points (mm, mN).
+    starts : list of ndarray
+        Start vectors, best first.
+    noise_mN : float
+    known : dict
+        ``fixed``, ``priors`` (and ``sigma_mN``), as :func:`~skin_indent.inverse.fit_least_squares` takes them.
+    options : dict
+        Tolerances and budget.
+    looped : bool
+        Stop after the first start whose fit could be made.
+    still : IdentificationResult, optional
+    tol : float
+        Relative tolerance on the cost.
+
+    Returns
+    -------
+    (IdentificationResult or None, int or None)
+    """
+    best, first, still_at = None, None, -1
+    for i, x0 in enumerate(starts):
+        try:
+            res = fit_least_squares(model, depth_mm, force_mN, x0, noise_mN=noise_mN, **known, **options)
+        except ValueError:  # a run of this start's fit failed: the next start
+            continue
+        if stalled(res, model):  # a stationary start: kept only if no start that moved does as well
+            if still is None or cost(res) < cost(still):
+                still, still_at = res, i
+        elif best is None or cost(res) < cost(best):
+            best, first = res, i
+        if looped:
+            break
+    if still is not None and (best is None or cost(best) > cost(still) * (1 + tol)):
+        best, first = still, still_at
+    return best, first
 
 
 def resumed(model, depth_mm, force_mN, result, *, noise_mN, known: dict, options: dict, early: bool = False):

@@ -350,7 +350,7 @@ class FECore:
         wanted = set(range(1, theta.size)) if columns is None else {int(i) for i in np.arange(theta.size)[columns]}
         # unit-force derivatives (mN/kPa per unit) at the solved depths: by the chain rule, or numeric
         D = np.zeros((h_s.size, theta.size))
-        numeric = []
+        numeric, faces = [], []
         for i in sorted(wanted - {0}):
             step = RELATIVE_STEP * max(abs(theta[i]), 1e-2 * (hi[i] - lo[i]))
             t = theta.copy()
@@ -360,10 +360,17 @@ class FECore:
             sample1 = self.spec(tiny[1:]).sample(merge=False)
             p1 = material_parameters(sample1)
             if S is not None and geometry(sample1) == geometry0 and p1.keys() == p0.keys():
+                if p1 == p0 and self.spec(t[1:]).sample(merge=False) != sample0:
+                    # a face where the probe changes nothing and the step changes the body (a compliance
+                    # of 0, a rigid base, stays rigid below 1e-6): the slope on the side of the step
+                    faces.append(i)
+                    continue
                 dd = tiny[i] - theta[i]
                 D[:, i] = sum((S[k] * (p1[k] - p0[k]) / dd for k in p0 if p1[k] != p0[k]), np.zeros_like(F_s))
             else:
                 numeric.append((i, t))
+        if faces:
+            self._face_columns(theta, faces, D, h_s)
         columns_n = [i for i, _ in numeric]
         last = self._last
         if numeric and self._secant and last is not None and last["numeric"] == columns_n and last["age"] < SECANT_REFRESH:
@@ -395,6 +402,37 @@ class FECore:
         for i in wanted - {0}:
             J[:, i] = theta[0] * spline(D[:, i])
         return J
+
+    def _face_columns(self, theta, faces: list, D, h_s) -> None:
+        """The columns ``faces`` of ``D`` (unit-force derivatives at the solved depths) where ``theta``
+        stands on a face of the range that changes the body once left: a layer's compliance at 0 (a
+        rigid base, whose mesh has no material below). There the run's own sensitivities have no
+        base to differentiate (the column would be 0 and a fit could never leave a rigid base), and
+        a difference across the rigid and the finite-base meshes measures their discretisation: the
+        slope is taken by direct differentiation of a run at 1% of the range inside the face (a base
+        12.5 times stiffer than the layer for a compliance in [0, 8]; the force is nearly linear in
+        the compliance there, as for springs in series), interpolated to the depths ``h_s`` solved
+        at ``theta``."""
+        from ..simulate import not_a_knot_spline
+
+        lo, hi = self.bounds
+        inside = []
+        for i in faces:
+            t = theta.copy()
+            t[i] = theta[i] + 1e-2 * (hi[i] - lo[i]) * (1.0 if theta[i] - lo[i] <= hi[i] - theta[i] else -1.0)
+            inside.append((i, t))
+        self._run([t[1:] for _, t in inside], sensitivities=True)
+        for i, t in inside:
+            h_t, _, S = self._curves[self._key(t[1:])]
+            if S is None:
+                continue
+            tiny = t.copy()
+            tiny[i] = t[i] + 1e-3 * (t[i] - theta[i])
+            p0 = material_parameters(self.spec(t[1:]).sample(merge=False))
+            p1 = material_parameters(self.spec(tiny[1:]).sample(merge=False))
+            dd = tiny[i] - t[i]
+            slope = sum((S[k] * (p1[k] - p0[k]) / dd for k in p0 if k in p1 and p1[k] != p0[k]), np.zeros(h_t.size))
+            D[:, i] = not_a_knot_spline(h_t, slope / h_t**1.5, h_s) * h_s**1.5
 
     def close(self) -> None:
         """Stop the worker processes."""
