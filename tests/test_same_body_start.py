@@ -20,14 +20,16 @@ from skin_indent.fitting import multistart
 from skin_indent.fitting.multistart import Fitter
 from skin_indent.fitting.starts import elastic_body, same_body
 from skin_indent.measurement import measurement_from_arrays, prepare
+from skin_indent.response_surface import SurfaceCore
 
 NOISE = 0.01
 
 
-class _LoopCore(HertzLikeModel):
+class _LoopCore(HertzLikeModel, SurfaceCore):
     """The analytic stand-in with the in-loop methods a finite-element core has (runs made here)."""
 
     name = "analytic in the loop"
+    in_loop = True  # as the finite-element core declares it (models.core.ElasticCore)
 
     def __init__(self, radius_mm, lower=(1.0, 0.2), upper=(100.0, 0.49)):
         super().__init__(radius_mm, lower, upper)
