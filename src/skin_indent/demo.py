@@ -26,6 +26,8 @@ model and every rung's residuals (``loop.png``) say what was missing.
 
 from __future__ import annotations
 
+import math
+
 import time
 from pathlib import Path
 
@@ -49,6 +51,17 @@ RADIUS_MM = 6.22
 SECOND_CURVE = "forearm_like_R3.11mm.csv"
 WINDOW_MM = (0.05, 0.6)
 PAPER_START = (10.0, 0.3)
+
+
+def bundled_rank(diag, radius_mm: float) -> str:
+    """Where the plan ranks the bundled second curve (a sphere of ``radius_mm``) among the measurements it weighed."""
+    ranking = [] if diag.outlook is None else diag.outlook.best(len(diag.outlook.ranking))
+    for i, a in enumerate(ranking):
+        if a.candidate.kind == "sphere" and math.isclose(a.candidate.radius_mm, radius_mm, rel_tol=1e-3):
+            sep = "" if math.isnan(a.separation) else f", S = {a.separation:.3g}"
+            return (f"the bundled curve at hand is a sphere of R = {radius_mm:g} mm: the plan ranks it {i + 1} of "
+                    f"{len(ranking)}{sep} (skin-indent plan lists them all)")
+    return f"the bundled curve at hand is a sphere of R = {radius_mm:g} mm (not among the measurements weighed)"
 
 
 def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, workers=None, progress: bool | None = None,
@@ -138,6 +151,7 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
             t = time.perf_counter()
             second = load_csv(bundled_path(SECOND_CURVE))
             echo(f"one curve cannot settle it; the measurement proposed: {diag.suggested_measurement or 'another sphere'}")
+            echo(bundled_rank(diag, float(second.radius_mm)))
             echo(f"adding the same skin indented with a sphere of R = {second.radius_mm:g} mm ({second.source}, "
                  f"{second.n_points} points), and diagnosing both curves together:")
             joint = diagnose([measurement, second], context=context)
