@@ -4,7 +4,7 @@ A folder of curves in, a table and a figure out
 
 .. topic:: What you will learn
 
-   * how :func:`~skin_indent.fitting.batch.fit_many` fits every curve of every file in a folder
+   * how :func:`~skin_indent.batch.fit_many` fits every curve of every file in a folder
      (all curves of a force map too), in parallel, each with the sphere radius its file
      records;
    * that the response surfaces are built (or found in the cache) once, before the fits,
@@ -39,7 +39,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 from skin_indent import Context
-from skin_indent.fitting.batch import fit_many
+from skin_indent.batch import fit_many
 from skin_indent.report.batch_table import summary_figure, write_tsv
 from skin_indent.data import bundled_path
 from skin_indent.report.fit_figure import plot_fit

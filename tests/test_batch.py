@@ -1,4 +1,4 @@
-"""Many curves at a time (skin_indent.fitting.batch), plots of a fit (skin_indent.report.fit_figure), provenance.
+"""Many curves at a time (skin_indent.batch), plots of a fit (skin_indent.report.fit_figure), provenance.
 
 A folder of small synthetic AFM-like curves (finite-element curves of the coarse mesh,
 R = 20 um, contact past the first samples, a force baseline and noise) plus two bad files
@@ -17,7 +17,7 @@ import pytest
 from _data import DATA
 
 from skin_indent import NeoHooke, SphericalIndenter, simulate
-from skin_indent.fitting.batch import TSV_COLUMNS, BatchRow, expand_paths, fit_many
+from skin_indent.batch import TSV_COLUMNS, BatchRow, expand_paths, fit_many
 from skin_indent.report.batch_table import summary_figure, write_tsv
 from skin_indent.runtime.context import Context
 from skin_indent.report.fit_figure import fit_arrays, plot_fit, write_fit_csv

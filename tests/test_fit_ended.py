@@ -74,7 +74,7 @@ def _fit(m, model="neo-hooke", tmp_path=None):
 
 def _outputs(result, tmp_path):
     """The text report, the JSON flags and the TSV table of one fit."""
-    from skin_indent.fitting.batch import _row_of
+    from skin_indent.batch import _row_of
     from skin_indent.report.batch_table import write_tsv
 
     text = result.report()

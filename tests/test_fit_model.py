@@ -220,7 +220,7 @@ def test_cli_fits_a_chosen_model_with_a_held_thickness_and_a_prior(cache, capsys
 
 
 def test_a_batch_of_a_chosen_model_tabulates_its_parameters(cache, tmp_path, monkeypatch):
-    from skin_indent.fitting.batch import fit_many
+    from skin_indent.batch import fit_many
     from skin_indent.report.batch_table import write_tsv
     from skin_indent.runtime.context import Context
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import skin_indent as si
-from skin_indent.fitting.batch import BatchRow, expand_paths
+from skin_indent.batch import BatchRow, expand_paths
 from skin_indent.cli import main
 from skin_indent.fitting import fit
 from skin_indent.fitting.scale_checks import MODULUS_RANGE_KPA, min_points, soft_min_points

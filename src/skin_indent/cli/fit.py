@@ -357,7 +357,7 @@ def _fit_batch(args, surface, fixed, window, x0, context) -> int:
     """Every curve of every file: one line (or TSV row) per curve; a bad file is a row, never the end."""
     from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
-    from ..fitting.batch import fit_many
+    from ..batch import fit_many
     from ..report.batch_table import row_line, summary_figure, write_tsv
 
     if args.model is not None or args.priors:

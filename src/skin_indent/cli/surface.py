@@ -44,7 +44,7 @@ def add_surface(sub):
 def _surface_requests(args) -> list[tuple[float, float, list[str]]]:
     """``[(radius_mm, depth_mm, [curve labels])]``: the :func:`~skin_indent.fitting.surface_for` calls
     that `fit` makes for the curves of ``args.data`` (one per radius and unit-radius surface)."""
-    from ..fitting.batch import _needed_depth, _surface_key, expand_paths
+    from ..batch import _needed_depth, _surface_key, expand_paths
     from ..measurement import load_curves, prepare
 
     missing = [str(path) for path in args.data if not path.exists()]

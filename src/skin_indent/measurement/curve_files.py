@@ -4,7 +4,7 @@
 every curve of them (all curves of a force map, or the one at ``index``), each with its
 :class:`CurveLocation` (file, index in it, map grid indices and position), or the one-line error
 of a file that cannot be read: a bad file is one row of a batch, never its end. Batches of fits
-(:func:`skin_indent.fitting.batch.fit_many`) and of diagnoses
+(:func:`skin_indent.batch.fit_many`) and of diagnoses
 (:func:`skin_indent.diagnosis.diagnose_many`) read their curves here.
 """
 

@@ -1,6 +1,6 @@
 """The outputs of a batch of fits: a table with its provenance, a line of text per curve, and a summary figure.
 
-:func:`write_tsv` writes one line per curve of :func:`skin_indent.fitting.batch.fit_many` (and of
+:func:`write_tsv` writes one line per curve of :func:`skin_indent.batch.fit_many` (and of
 :func:`skin_indent.diagnosis.diagnose_many`, whose figures are :mod:`.verdict_map`'s) after
 ``#`` provenance lines, in the package units whatever the curve's scale (the units are in the
 column names: ``E_kPa``, ``contact_point_mm``, ``noise_mN``); :func:`row_line` is the line
@@ -75,7 +75,7 @@ def _middle_ellipsis(text: str, width: int) -> str:
 
 
 def _columns(rows) -> tuple:
-    """The table columns of rows of one dataclass (:class:`skin_indent.fitting.batch.BatchRow`,
+    """The table columns of rows of one dataclass (:class:`skin_indent.batch.BatchRow`,
     :class:`skin_indent.diagnosis.DiagnosisRow`)."""
     return tuple(f.name for f in dataclasses.fields(rows[0])
                  if f.name not in ("fit", "diagnosis", "parameters", "std")) if rows else ()
@@ -92,7 +92,7 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
     Parameters
     ----------
     rows : sequence of BatchRow or DiagnosisRow
-        From :func:`~skin_indent.fitting.batch.fit_many` or :func:`~skin_indent.diagnosis.diagnose_many`.
+        From :func:`~skin_indent.batch.fit_many` or :func:`~skin_indent.diagnosis.diagnose_many`.
     path : path
         The TSV file (written atomically, mode 0644 under the usual umask).
     provenance : dict, optional
@@ -105,7 +105,7 @@ def write_tsv(rows, path, provenance: dict | None = None) -> Path:
 
     Notes
     -----
-    Columns ``rows.columns`` (:data:`skin_indent.fitting.batch.TSV_COLUMNS` for fits,
+    Columns ``rows.columns`` (:data:`skin_indent.batch.TSV_COLUMNS` for fits,
     :data:`skin_indent.diagnosis.batch.DIAGNOSIS_COLUMNS` for diagnoses), then ``NAME`` and ``NAME_sd`` for
     each parameter of the models beyond those with a column of their own (``own_parameters`` of the row
     class: E_kPa, nu and the contact point of a fit; E_kPa of a diagnosis' final model): ``thickness_mm``,

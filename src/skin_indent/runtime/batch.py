@@ -1,6 +1,6 @@
 """Many curves at a time, whatever is done to each: the machinery that batches of fits and diagnoses share.
 
-A batch (:func:`skin_indent.fitting.batch.fit_many`, :func:`skin_indent.diagnosis.diagnose_many`) reads
+A batch (:func:`skin_indent.batch.fit_many`, :func:`skin_indent.diagnosis.diagnose_many`) reads
 its curves in this process, hands one task per curve to the executor of its
 :class:`~skin_indent.runtime.context.Context` (this process, local processes or a Dask cluster:
 :func:`~skin_indent.runtime.executors.make_executor`) and puts each outcome into its row as it

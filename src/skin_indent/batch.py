@@ -32,15 +32,16 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
-from .one_fit import fit, paper_identification, paper_needed
-from .model_fit import parse_model, prepare_curve
-from .surfaces import SIMILARITY_RATIOS, surface_for
-from ..measurement import prepare
-from ..measurement.curve_files import READABLE_SUFFIXES, CurveLocation, expand_paths, read_curves
-from ..runtime.batch import BatchRows, one_line, row_provenance, run_tasks
-from ..runtime.context import context_of
-from ..runtime.json_io import jsonable
-from ..runtime.provenance import provenance as make_provenance
+from .fitting.one_fit import fit, paper_identification, paper_needed
+from .fitting.model_fit import parse_model, prepare_curve
+from .fitting.surfaces import SIMILARITY_RATIOS, surface_for
+from .measurement import prepare
+from .measurement.curve_files import READABLE_SUFFIXES, CurveLocation, expand_paths, read_curves
+from .report.fit_figure import plot_fit, write_fit_csv
+from .runtime.batch import BatchRows, one_line, row_provenance, run_tasks
+from .runtime.context import context_of
+from .runtime.json_io import jsonable
+from .runtime.provenance import provenance as make_provenance
 
 __all__ = ["BatchResult", "BatchRow", "READABLE_SUFFIXES", "TSV_COLUMNS", "expand_paths", "fit_many"]
 
@@ -423,8 +424,6 @@ def _fields(row: BatchRow) -> dict:
 
 def _write_plots(row: BatchRow, result, plot_dir, prov) -> BatchRow:
     """The plot and CSV of one fit; a failure to write becomes a flag of the row, not an error."""
-    from ..report.fit_figure import plot_fit, write_fit_csv  # the report's drawing (matplotlib), only when asked
-
     name = row.plot_name
     one = row_provenance(prov, row)
     try:
