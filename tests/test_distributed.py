@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skin_indent.mechanics.solver import ConvergenceError
+from skin_indent.mechanics.convergence import ConvergenceError
 from skin_indent.response_surface import (DASK_MISSING, InProcess, LocalProcesses, ResponseSurface, SurfaceGrid,
                                           default_settings, make_executor, run_batch)
 from skin_indent.runtime import executors as _executors

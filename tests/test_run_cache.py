@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skin_indent.mechanics.solver import ConvergenceError
+from skin_indent.mechanics.convergence import ConvergenceError
 from skin_indent.models.fe_core import FECore
 from skin_indent.response_surface import RunCache, RunFailed
 

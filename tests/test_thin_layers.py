@@ -32,7 +32,8 @@ from skin_indent.effects import Model, effect
 from skin_indent.mechanics import LinearElastic, NeoHooke, SphericalIndenter
 from skin_indent.mechanics.layers import RIGID, SQUEEZE_FROM, Layer, LayeredSample
 from skin_indent.mechanics.mesh import graded_mesh
-from skin_indent.mechanics.solver import CONFINED_FLOOR, ConfinedPenalty, IndentationProblem
+from skin_indent.mechanics.layers import CONFINED_FLOOR, ConfinedPenalty
+from skin_indent.mechanics.solver import IndentationProblem
 from skin_indent.simulate import simulate
 
 

@@ -26,7 +26,8 @@ from .mechanics.contact import ContactLaw, SphericalIndenter
 from .mechanics.layers import LayeredSample
 from .mechanics.materials import Material, NeoHooke
 from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh
-from .mechanics.solver import IndentationProblem, NewtonReport
+from .mechanics.convergence import NewtonReport
+from .mechanics.solver import IndentationProblem
 from .mechanics.protocol import Protocol
 from .mechanics.fields import write_vtu
 from .mechanics.sensitivity import DirectSensitivity
@@ -304,7 +305,7 @@ def simulate(material: Material, indenter: SphericalIndenter | None = None, dept
     ------
     ValueError
         Bad input (one-line message).
-    skin_indent.mechanics.solver.ConvergenceError
+    skin_indent.mechanics.convergence.ConvergenceError
         Newton's method failed even with step cutting.
     """
     if not isinstance(material, (Material, LayeredSample)):

@@ -18,7 +18,7 @@ _EXPORTS = {
     "NeoHookeStiffening": ".materials", "PronyTerm": ".materials", "Viscoelastic": ".materials",
     "DEFAULT_MESH": ".mesh", "MESH_FAMILY": ".mesh", "IndentationMesh": ".mesh", "MeshDesign": ".mesh",
     "graded_mesh": ".mesh", "load_mesh": ".mesh", "save_mesh": ".mesh",
-    "ConvergenceError": ".solver", "IndentationProblem": ".solver", "NewtonReport": ".solver",
+    "ConvergenceError": ".convergence", "IndentationProblem": ".solver", "NewtonReport": ".convergence",
 }
 __all__ = list(_EXPORTS)
 

@@ -24,7 +24,7 @@ material's reference modulus and ``a`` the design contact radius, so the force
 is exactly proportional to the moduli at fixed Poisson's ratio. Layers squeezed
 against a rigid base are far stiffer than a half-space: there the frictionless
 penalty is multiplied by a factor of the depth (:attr:`SphereContact.penalty_scale`,
-see :class:`~skin_indent.mechanics.solver.ConfinedPenalty`).
+see :class:`~skin_indent.mechanics.layers.ConfinedPenalty`).
 
 Interface laws (:class:`ContactLaw`)
 ------------------------------------

@@ -5,12 +5,14 @@ A relative residual cannot fall below the round-off with which the residual is e
 :class:`~.solver.IndentationProblem` and, for a tolerance below what float64 attains, accepts
 an iterate whose residual is within its round-off floor (:func:`roundoff_floor`, derived from
 the problem) and whose Newton increment is negligible. See "Newton convergence" in
-docs/theory.rst.
+docs/theory.rst. :class:`NewtonReport` counts what an incremental solution did, and
+:class:`ConvergenceError` says where it failed.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -101,3 +103,72 @@ def roundoff_floor(solid, contact, u: np.ndarray, depth: float, free: np.ndarray
         g = np.bincount(contact.element_dofs.ravel(), weights=ge.ravel(), minlength=u.size)
         total += float(np.linalg.norm(g[free]))
     return EPS * total
+
+
+class ConvergenceError(RuntimeError):
+    """Newton's method failed to converge at some depth, even after step cutting."""
+
+
+@dataclass
+class NewtonReport:
+    """Statistics of one incremental solution.
+
+    Attributes
+    ----------
+    increments : int
+        Number of converged increments (including any cut steps).
+    iterations : list of int
+        Newton iterations of each converged increment.
+    residuals : list of float
+        Final relative residual of each increment (above ``rtol`` where it stopped at the
+        round-off floor, see ``roundoff_stops``).
+    step_cuts : int
+        How often an increment was halved.
+    line_search_backtracks : int
+        Number of step-length reductions.
+    max_penetration_ratio : float
+        Largest penetration of the surface into the sphere relative to the depth.
+    wall_time_s : float
+        Wall time of the solve, s.
+    tangents : int
+        Tangent matrices evaluated and assembled.
+    modified_steps : int
+        Newton iterations that reused the previous iterate's tangent (modified Newton,
+        near convergence).
+    factorisations : int
+        Sparse LU factorisations of a tangent.
+    preconditioned_solves : int
+        Linear solves done by a Krylov method preconditioned with an earlier factorisation.
+    roundoff_stops : int
+        Increments accepted at the residual's round-off floor rather than below ``rtol``
+        (see :func:`~.convergence.newton_converged`).
+    """
+
+    increments: int = 0
+    iterations: list = field(default_factory=list)
+    residuals: list = field(default_factory=list)
+    step_cuts: int = 0
+    line_search_backtracks: int = 0
+    max_penetration_ratio: float = 0.0
+    wall_time_s: float = 0.0
+    tangents: int = 0
+    modified_steps: int = 0
+    factorisations: int = 0
+    preconditioned_solves: int = 0
+    roundoff_stops: int = 0
+
+    @property
+    def total_iterations(self) -> int:
+        return int(np.sum(self.iterations))
+
+    @property
+    def mean_iterations(self) -> float:
+        return float(np.mean(self.iterations)) if self.iterations else 0.0
+
+    def summary(self) -> str:
+        return (
+            f"{self.increments} increments, {self.total_iterations} Newton iterations "
+            f"({self.mean_iterations:.2f} per increment), {self.step_cuts} step cuts, "
+            f"{self.line_search_backtracks} backtracks, {self.factorisations} factorisations, "
+            f"max penetration {self.max_penetration_ratio:.2e} x depth, {self.wall_time_s:.2f} s"
+        )

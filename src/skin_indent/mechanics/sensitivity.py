@@ -33,7 +33,7 @@ per 20-depth run, measured).
   non-zero for the modulus of the arg-max material only (at a tie, every tied
   material gets the derivative: the right derivative of the max).
   Layers on a rigid base where the penalty follows their confined modulus
-  :math:`M_s` (:class:`~.solver.ConfinedPenalty` above 1 at that depth) get
+  :math:`M_s` (:class:`~.layers.ConfinedPenalty` above 1 at that depth) get
   :math:`(\partial M_s/\partial p)/M_s` instead (:math:`E_\mathrm{ref}` cancels there),
   with :math:`M_s` depending on the layers' moduli and Poisson's ratios.
 * The sphere force is the vertical resultant of the contact force vector,

@@ -36,14 +36,12 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from .axisymmetric import AxisymmetricSolid, SparsityPattern
 from .contact import ContactLaw, SphereContact, SphericalIndenter
-from .convergence import newton_converged, roundoff_floor
-from .layers import SQUEEZE_FROM, LayeredSample
+from .convergence import ConvergenceError, NewtonReport, newton_converged, roundoff_floor
+from .layers import SQUEEZE_FROM, ConfinedPenalty, LayeredSample
 from .linear import FrictionalTangentSolver, TangentSolver
 from .materials import Material
 from .predictor import SimilarityPredictor, SurfaceFit, hertz_start
@@ -67,138 +65,6 @@ REFACTORISE_AFTER_CONTACT_CHANGES = 10
 #: depth is reached in a bounded number of increments or the solve stops with
 #: :class:`ConvergenceError`. A curve that never fails is solved exactly as before.
 EASY_ITERATIONS = 3
-
-
-#: Layers bonded to a rigid base: the penalty per area follows the contact stiffness of the
-#: squeezed layer, ``CONFINED_PENALTY`` M / (T - h) against E / a for a half-space (see
-#: :class:`ConfinedPenalty`). Measured (R = 1 mm, layers of 0.05-1 mm, nu = 0.3-0.49): with the
-#: half-space's penalty alone the penetration reached 0.4 % of the depth at h/T = 0.5 (force
-#: 0.5 % low) and, from h/T = 0.7-0.9, a surface mode on the penalty's soft foundation made the
-#: tangent indefinite (Newton failed: 0.71 on the medium mesh, nu = 0.49, T/R = 0.05). 0.1 keeps
-#: the penetration near the half-space's (~1e-3 of the depth) and solves to h/T = 0.91-0.98 on
-#: the three meshes; 0.3 cost 10-30 % more Newton iterations, 3 did not converge to 1e-5.
-CONFINED_PENALTY = 0.1
-#: The remaining thickness in :class:`ConfinedPenalty` is taken at least this fraction of T.
-CONFINED_FLOOR = 0.05
-
-
-class ConfinedPenalty:
-    r"""Factor of the contact penalty of layers bonded to a rigid base, as a function of the depth.
-
-    The penalty of :class:`IndentationProblem` is scaled for a half-space,
-    :math:`\epsilon_0 = \kappa E_{ref} / a_{max}`. A layer of thickness :math:`T` squeezed
-    between the sphere and a rigid base is stiffer: per unit area about its confined modulus
-    :math:`M` (:attr:`~.layers.LayeredSample.confined_modulus_kPa`, 17 E at nu = 0.49) over
-    the remaining thickness :math:`T - h`, against :math:`E/a` for a half-space. At depth
-    :math:`h` the penalty is :math:`\epsilon_0` times
-
-    .. math::
-
-        s(h) = \max\Big(1,\ c\, \frac{M \sqrt{R h}}{E_{ref} \max(T - h, f T)}\Big)
-
-    with :math:`c` = :data:`CONFINED_PENALTY` and :math:`f` = :data:`CONFINED_FLOOR`, so
-    that the penetration stays a similar fraction of the depth as on a half-space (where
-    :math:`s = 1`: thick layers, small depths). It is a function of the depth alone: the
-    curve stays path independent and proportional to the moduli.
-
-    Parameters
-    ----------
-    sample : LayeredSample
-        Layers on a rigid base.
-    radius_mm : float
-        Sphere radius R, mm.
-    e_ref : float
-        The reference modulus of the half-space penalty, kPa.
-    """
-
-    def __init__(self, sample: LayeredSample, radius_mm: float, e_ref: float):
-        self.modulus_kPa = sample.confined_modulus_kPa
-        self.thickness_mm = sample.total_thickness_mm
-        self.radius_mm = float(radius_mm)
-        self.e_ref = float(e_ref)
-
-    def raw(self, depth_mm: float) -> float:
-        """The factor before it is bounded below by 1."""
-        T = self.thickness_mm
-        rest = max(T - depth_mm, CONFINED_FLOOR * T)
-        a = math.sqrt(self.radius_mm * max(depth_mm, 0.0))
-        return CONFINED_PENALTY * self.modulus_kPa * a / (self.e_ref * rest)
-
-    def active(self, depth_mm: float) -> bool:
-        """Whether the factor exceeds 1 at ``depth_mm`` (then the penalty follows ``M``, not ``E_ref``)."""
-        return self.raw(depth_mm) > 1.0
-
-    def __call__(self, depth_mm: float) -> float:
-        return max(1.0, self.raw(depth_mm))
-
-
-class ConvergenceError(RuntimeError):
-    """Newton's method failed to converge at some depth, even after step cutting."""
-
-
-@dataclass
-class NewtonReport:
-    """Statistics of one incremental solution.
-
-    Attributes
-    ----------
-    increments : int
-        Number of converged increments (including any cut steps).
-    iterations : list of int
-        Newton iterations of each converged increment.
-    residuals : list of float
-        Final relative residual of each increment (above ``rtol`` where it stopped at the
-        round-off floor, see ``roundoff_stops``).
-    step_cuts : int
-        How often an increment was halved.
-    line_search_backtracks : int
-        Number of step-length reductions.
-    max_penetration_ratio : float
-        Largest penetration of the surface into the sphere relative to the depth.
-    wall_time_s : float
-        Wall time of the solve, s.
-    tangents : int
-        Tangent matrices evaluated and assembled.
-    modified_steps : int
-        Newton iterations that reused the previous iterate's tangent (modified Newton,
-        near convergence).
-    factorisations : int
-        Sparse LU factorisations of a tangent.
-    preconditioned_solves : int
-        Linear solves done by a Krylov method preconditioned with an earlier factorisation.
-    roundoff_stops : int
-        Increments accepted at the residual's round-off floor rather than below ``rtol``
-        (see :func:`~.convergence.newton_converged`).
-    """
-
-    increments: int = 0
-    iterations: list = field(default_factory=list)
-    residuals: list = field(default_factory=list)
-    step_cuts: int = 0
-    line_search_backtracks: int = 0
-    max_penetration_ratio: float = 0.0
-    wall_time_s: float = 0.0
-    tangents: int = 0
-    modified_steps: int = 0
-    factorisations: int = 0
-    preconditioned_solves: int = 0
-    roundoff_stops: int = 0
-
-    @property
-    def total_iterations(self) -> int:
-        return int(np.sum(self.iterations))
-
-    @property
-    def mean_iterations(self) -> float:
-        return float(np.mean(self.iterations)) if self.iterations else 0.0
-
-    def summary(self) -> str:
-        return (
-            f"{self.increments} increments, {self.total_iterations} Newton iterations "
-            f"({self.mean_iterations:.2f} per increment), {self.step_cuts} step cuts, "
-            f"{self.line_search_backtracks} backtracks, {self.factorisations} factorisations, "
-            f"max penetration {self.max_penetration_ratio:.2e} x depth, {self.wall_time_s:.2f} s"
-        )
 
 
 class IndentationProblem:
