@@ -169,13 +169,13 @@ def test_the_demo_curves_surfaces_are_all_shipped(name, radius, tmp_path, monkey
     from skin_indent.fitting.surfaces import elastic_core, surface_for
     from skin_indent.measurement import load_csv
     from skin_indent.models import effect_surface
-    from skin_indent.response_surface import _surface
+    from skin_indent.response_surface import _runs
     from skin_indent.runtime.context import Context
 
     def refuse(*args, **kwargs):
         raise AssertionError("a surface needed a finite-element run: not shipped")
 
-    monkeypatch.setattr(_surface, "choose_executor", refuse)
+    monkeypatch.setattr(_runs, "choose_executor", refuse)
     monkeypatch.setattr(effect_surface, "make_executor", refuse)
     curve = prepare_curve(load_csv(bundled_path(name), radius_mm=radius), radius_mm=None,
                           segments=("approach", "hold", "retract"))
@@ -214,13 +214,13 @@ def test_a_layered_or_stiffening_run_scales_exactly_with_the_radius(effects, val
 def _dimensionless(effects, radius_mm, max_depth_mm, tmp_path, monkeypatch):
     from skin_indent.fitting.surfaces import elastic_core
     from skin_indent.models import effect_surface
-    from skin_indent.response_surface import _surface
+    from skin_indent.response_surface import _runs
     from skin_indent.runtime.context import Context
 
     def refuse(*args, **kwargs):
         raise AssertionError("a surface needed a finite-element run: not shipped")
 
-    monkeypatch.setattr(_surface, "choose_executor", refuse)
+    monkeypatch.setattr(_runs, "choose_executor", refuse)
     monkeypatch.setattr(effect_surface, "make_executor", refuse)
     core = elastic_core(effects, radius_mm=radius_mm, max_depth_mm=max_depth_mm, e_star_kPa=7.0,
                         context=Context(cache_dir=tmp_path))

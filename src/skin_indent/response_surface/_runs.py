@@ -21,11 +21,16 @@ from __future__ import annotations
 
 import logging
 import pickle
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
-from ..runtime.executors import Executor, make_executor
-from ._cache import run_task
+import numpy as np
+
+from ..runtime.executors import Executor, import_distributed, make_executor
+from ..runtime.log import progress_bar
+from ._cache import expected_code_of, run_key, run_task
 from ._store import RunStore
 
 log = logging.getLogger(__name__)
@@ -180,3 +185,60 @@ def _record(job: Job, out, error, *, remote: bool) -> tuple:
         job.store.record_done(job.nu, out["values"], seconds=out["seconds"], cpu_seconds=out.get("cpu_seconds"),
                               worker=out["worker"])
     return out["values"], None
+
+
+def surface_columns(grid, unit_curve, settings, what: str, *, cache_dir=None, workers=None, progress=None,
+                    client=None, scheduler=None, executor=None, quiet: bool = False) -> tuple[np.ndarray, dict]:
+    """The unit forces of a response surface, one run per nu, read from the run cache or made.
+
+    Parameters are those of :meth:`~skin_indent.response_surface.ResponseSurface.build` (``unit_curve``
+    and ``settings`` resolved); ``what`` names the surface in log lines.
+
+    Returns
+    -------
+    f : ndarray
+        Unit forces (mN at E = 1 kPa), depths x nu; the column of a failed run is NaN.
+    failures : dict
+        nu -> why its run failed (each also warned as a RuntimeWarning).
+    """
+    if (client is not None or scheduler is not None) and executor is None:
+        import_distributed()  # fail with the install hint before any output
+    depth = np.array(grid.depth_mm)
+    nus = grid.nu
+    f = np.full((depth.size, nus.size), np.nan)
+    key = run_key(settings, depth)
+    store = None if cache_dir is None else RunStore(Path(cache_dir) / "runs" / key[:24], key, settings, depth)
+    todo = []
+    for k, nu in enumerate(nus.tolist()):
+        done = store.load(nu) if store is not None else None
+        if done is None:
+            todo.append(k)
+        else:
+            f[:, k] = done
+    failures: dict[float, str] = {}
+    if todo:  # one line for the phase (the cache folder in a DEBUG line)
+        (log.debug if quiet else log.info)("%s: %d finite-element run%s to make, %d of %d cached", what,
+                                           len(todo), "s" if len(todo) != 1 else "", nus.size - len(todo),
+                                           nus.size)
+        if store is not None:
+            log.debug("%s: runs cached in %s", what, store.dir)
+    else:
+        log.debug("%s: all %d runs cached (or shipped) in %s", what, nus.size, store.dir)
+    bar = progress_bar(progress, total=nus.size, initial=nus.size - len(todo), desc="response surface",
+                       unit="run")
+    # remote workers may run another installation: what they ran is checked (local processes run
+    # this one, which may be edited meanwhile in development)
+    code = expected_code_of(settings)
+    jobs = [Job(k, store, float(nus[k]), (unit_curve, float(nus[k]), depth), code) for k in todo]
+    try:
+        for k, values, reason in make_runs(jobs, lambda n: choose_executor(unit_curve, workers, client, scheduler,
+                                                                             executor, n), bar=bar, what=what):
+            if values is None:
+                failures[float(nus[k])] = reason
+                warnings.warn(f"forward run at nu = {float(nus[k]):g} failed ({reason}); column left missing",
+                              RuntimeWarning, stacklevel=3)
+            else:
+                f[:, k] = values
+    finally:
+        bar.close()
+    return f, failures

@@ -5,30 +5,25 @@ from __future__ import annotations
 import json
 import logging
 import os
-import warnings
 import zipfile
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
-from ._cache import (UnitCurve, atomic_savez, canonical_json, expected_code_of, resolve_model, run_key,
-                     default_cache_dir, settings_hash)
-from ..runtime.executors import Executor, import_distributed
+from ..runtime.executors import Executor
+from ._cache import UnitCurve, canonical_json, default_cache_dir, resolve_model, settings_hash
 from ._core import SurfaceCore
+from ._file import load_surface, save_surface
 from ._grid import SurfaceGrid
 from ._interpolate import _DEPTH_BUILDERS, _lagrange_stencils, _spline_stencils
-from ._runs import Job, choose_executor, make_runs
-from ._store import RunStore
-from ..runtime.log import progress_bar
+from ._runs import surface_columns
 
 log = logging.getLogger(__name__)
 
 METHODS = ("lagrange", "spline")
 DEPTH_INTERPS = ("lagrange", "quartic", "spline")
 SCALINGS = ("hertz", "h1.5", "none")
-_FORMAT = "skin_indent.response_surface"
-_FORMAT_VERSION = 1
 _RTOL_BOUNDS = 1e-9  # relative tolerance on the box checks
 
 
@@ -189,59 +184,15 @@ class ResponseSurface(SurfaceCore):
             The Dask scheduler cannot be reached, or the cache cannot be written.
         """
         unit_curve, settings = resolve_model(unit_curve, settings)
-        if (client is not None or scheduler is not None) and executor is None:
-            import_distributed()  # fail with the install hint before any output
-        depth = np.array(grid.depth_mm)
-        nus = grid.nu
-        f = np.full((depth.size, nus.size), np.nan)
-        key = run_key(settings, depth)
-        store = None if cache_dir is None else RunStore(Path(cache_dir) / "runs" / key[:24], key, settings, depth)
-        todo = []
-        for k, nu in enumerate(nus.tolist()):
-            done = store.load(nu) if store is not None else None
-            if done is None:
-                todo.append(k)
-            else:
-                f[:, k] = done
-        failures: dict[float, str] = {}
-        what = _describe(settings, grid)
-        if todo:  # one line for the phase (the cache folder in a DEBUG line)
-            (log.debug if quiet else log.info)("%s: %d finite-element run%s to make, %d of %d cached", what,
-                                               len(todo), "s" if len(todo) != 1 else "", nus.size - len(todo),
-                                               nus.size)
-            if store is not None:
-                log.debug("%s: runs cached in %s", what, store.dir)
-        else:
-            log.debug("%s: all %d runs cached (or shipped) in %s", what, nus.size, store.dir)
-        bar = progress_bar(progress, total=nus.size, initial=nus.size - len(todo), desc="response surface",
-                           unit="run")
-        # remote workers may run another installation: what they ran is checked (local processes run
-        # this one, which may be edited meanwhile in development)
-        code = expected_code_of(settings)
-        jobs = [Job(k, store, float(nus[k]), (unit_curve, float(nus[k]), depth), code) for k in todo]
-        try:
-            for k, values, reason in make_runs(jobs, lambda n: choose_executor(unit_curve, workers, client, scheduler,
-                                                                                 executor, n), bar=bar, what=what):
-                if values is None:
-                    failures[float(nus[k])] = reason
-                    warnings.warn(f"forward run at nu = {float(nus[k]):g} failed ({reason}); column left missing",
-                                  RuntimeWarning, stacklevel=2)
-                else:
-                    f[:, k] = values
-        finally:
-            bar.close()
+        f, failures = surface_columns(grid, unit_curve, settings, _describe(settings, grid), cache_dir=cache_dir,
+                                      workers=workers, progress=progress, client=client, scheduler=scheduler,
+                                      executor=executor, quiet=quiet)
         return cls(grid, f, settings=settings, failures=failures, **options)
 
     # ------------------------------------------------------------ persistence
     def save(self, path: str | os.PathLike) -> Path:
         """Write the surface to ``path`` (npz with JSON metadata), atomically."""
-        meta = {"format": _FORMAT, "version": _FORMAT_VERSION, "hash": self.hash, "settings": self.settings,
-                "failures": [[nu, why] for nu, why in self.failures.items()],
-                "options": {"method": self.method, "depth_interp": self.depth_interp, "scaling": self.scaling}}
-        path = Path(path)
-        atomic_savez(path, depth_mm=self.grid.depth_mm, E_kPa=self.grid.E_kPa, nu=self.grid.nu,
-                      unit_force_mN=self._f, meta=np.array(canonical_json(meta)))
-        return path
+        return save_surface(self, path)
 
     @classmethod
     def load(cls, path: str | os.PathLike, **options) -> "ResponseSurface":
@@ -257,33 +208,7 @@ class ResponseSurface(SurfaceCore):
         for name, choices in (("method", METHODS), ("depth_interp", DEPTH_INTERPS), ("scaling", SCALINGS)):
             if name in options:
                 _check_choice(name, options[name], choices)
-        path = Path(path)
-        with open(path, "rb") as fh:  # OSError (missing, a directory, no permission) as it is
-            magic = fh.read(4)
-        try:
-            if magic[:2] != b"PK":
-                raise ValueError("not an npz archive")
-            with np.load(path, allow_pickle=False) as z:
-                meta = json.loads(str(z["meta"]))
-                arrays = {k: np.array(z[k]) for k in ("depth_mm", "E_kPa", "nu", "unit_force_mN")}
-            if not isinstance(meta, dict):
-                raise ValueError("metadata is not a JSON object")
-        except Exception as err:  # noqa: BLE001 - any damage: one line that names the file
-            why = " ".join(str(err).split()) or type(err).__name__
-            raise ValueError(f"{path}: not a readable response surface file ({why})") from None
-        if meta.get("format") != _FORMAT or meta.get("version") != _FORMAT_VERSION:
-            raise ValueError(f"{path}: not a response surface of format version {_FORMAT_VERSION}")
-        try:
-            grid = SurfaceGrid(arrays["depth_mm"], arrays["E_kPa"], arrays["nu"])
-            out = cls(grid, arrays["unit_force_mN"], settings=meta["settings"], failures=dict(meta["failures"]),
-                      **{**meta["options"], **options})
-            stored_hash = str(meta["hash"])
-        except (ValueError, TypeError, KeyError) as err:
-            why = " ".join(str(err).split()) or type(err).__name__
-            raise ValueError(f"{path}: damaged response surface file ({why})") from None
-        if out.hash != stored_hash:
-            raise ValueError(f"{path}: stored hash does not match its settings and grid (file edited?)")
-        return out
+        return load_surface(cls, path, **options)
 
     @classmethod
     def load_or_build(cls, grid: SurfaceGrid, settings: Mapping | None = None,
