@@ -19,7 +19,7 @@ from ..measurement.scale import Quantity, UnitText, afm_scale
 from ..runtime.provenance import records_call
 from .curve import fit_half_space, with_scale_flags
 from .identification import METHODS, NEARLY_INCOMPRESSIBLE_NU
-from .model_fit import fit_model, parse_model
+from .model_fit import fit_model, is_several, parse_model
 from .result import FitResult
 
 
@@ -115,7 +115,7 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     if "nu" in fixed and "nu" in free:
         raise ValueError(f"nu is both held (at {fixed['nu']:g}) and freed: give one of them")
     paper = paper_identification(method, window=window, contact=contact, surface=surface, x0=x0, tol=tol)
-    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
+    several = is_several(data)
     effects = parse_model("neo-hooke" if model is None else model)
     if paper:
         if effects or priors or several:
