@@ -1,9 +1,11 @@
-"""What every fit's result adds to an identification: its score against the error model.
+"""The one result of every fit, :class:`FitResult`: one curve or several curves of one sample, a fit
+of :func:`~skin_indent.fitting.fit` or a rung of a diagnosis's ladder.
 
-:class:`ScoredResult` is :class:`~skin_indent.inverse.IdentificationResult` with ``aic``, ``bic`` and
-the effective sample size ``n_eff`` they are at (:func:`~skin_indent.fitting.error_model.score`):
-the one meaning of ``bic`` in every result of a fit and of a diagnosis (a fit alone is scored at its
-own residual's ``n_eff``; a diagnosis compares its models at one ``n_eff``, that of the best-fitting).
+It is :class:`~skin_indent.inverse.IdentificationResult` with its score, ``aic``, ``bic`` and the
+effective sample size ``n_eff`` they are at (:func:`~skin_indent.fitting.error_model.score`): the one
+meaning of ``bic`` in every result of a fit and of a diagnosis (a fit alone is scored at its own
+residual's ``n_eff``; a diagnosis compares its models at one ``n_eff``, that of the best-fitting),
+with the model, how the fit ended, each curve's data treatment and misfit, and what the user knew.
 """
 
 from __future__ import annotations
@@ -22,33 +24,6 @@ from .knowledge import DETERMINED_BY
 from .result_text import curve_dict, report_lines
 
 
-@dataclass(frozen=True, eq=False)
-class ScoredResult(IdentificationResult):
-    """An identification with its score: ``aic``, ``bic`` (:data:`BIC_FORMULA`) at ``n_eff``.
-
-    ``chi2`` is the chi-square of the residual against the error model (sigma_i of each point).
-    """
-
-    BIC_FORMULA = BIC_FORMULA
-
-    aic: float = math.nan
-    bic: float = math.nan
-    n_eff: float = math.nan
-
-    def criteria(self) -> dict:
-        return {"aic": self.aic, "bic": self.bic, "n_eff": self.n_eff, "bic_formula": self.BIC_FORMULA,
-                "aic_ml": self.aic_ml, "bic_ml": self.bic_ml, "bic_ml_formula": self.BIC_ML_FORMULA}
-
-    def at(self, n_eff: float) -> "ScoredResult":
-        """This result scored at another effective sample size (a diagnosis's, to compare it with its models)."""
-        aic, bic = score(self.chi2, self.n_free, self.n_points, n_eff)
-        return dataclasses.replace(self, aic=aic, bic=bic, n_eff=float(n_eff))
-
-    def criteria_line(self, digits: int = 5) -> str:
-        return (f"    AIC        = {self.aic:.{digits}g}, BIC = {self.bic:.{digits}g} (against the error model, "
-                f"n_eff = {self.n_eff:.4g})")
-
-
 def scored(chi2: float, whitened_residual, k: int) -> dict:
     """``{"aic", "bic", "n_eff"}`` of a fit alone: its weighted chi-square ``chi2`` at the effective sample
     size of its own residual scaled to the noise (``whitened_residual``, :func:`effective_n`)."""
@@ -59,11 +34,13 @@ def scored(chi2: float, whitened_residual, k: int) -> dict:
 
 
 @dataclass(frozen=True, eq=False)
-class FitResult(ScoredResult):
+class FitResult(IdentificationResult):
     """The result of every fit of a model: one curve or several curves of one sample, a fit of
     :func:`~skin_indent.fitting.fit` or a rung of a diagnosis's ladder.
 
-    Everything of :class:`ScoredResult` (``parameters`` and ``std`` as users read them: ``ratio``,
+    Everything of :class:`~skin_indent.inverse.IdentificationResult` with its score: ``aic``, ``bic``
+    (:data:`BIC_FORMULA`: ``chi2`` against the error model, sigma_i of each point) at the effective
+    sample size ``n_eff`` (:func:`~skin_indent.fitting.error_model.score`; :meth:`at` another) (``parameters`` and ``std`` as users read them: ``ratio``,
     ``C20_kPa``..., the parameters shared and each curve's own, ``offset_mm[2]``; ``covariance`` and
     ``free_names`` in the fit coordinates ``fit_parameters``; the score ``bic``, :attr:`BIC_FORMULA`,
     at its own ``n_eff`` when fitted, at a diagnosis's common ``n_eff`` in a diagnosis), with the
@@ -147,6 +124,11 @@ class FitResult(ScoredResult):
         elastic force model its fits used, :func:`~skin_indent.runtime.provenance.surface_identity`).
     """
 
+    BIC_FORMULA = BIC_FORMULA
+
+    aic: float = math.nan
+    bic: float = math.nan
+    n_eff: float = math.nan
     model: str = "neo-hooke"
     curves: list = field(default_factory=list)
     flags: tuple = ()
@@ -176,6 +158,19 @@ class FitResult(ScoredResult):
     hertz: dict = field(default_factory=dict)
     quality: dict = field(default_factory=dict)
     surface: dict | list = field(default_factory=dict)
+
+    def criteria(self) -> dict:
+        return {"aic": self.aic, "bic": self.bic, "n_eff": self.n_eff, "bic_formula": self.BIC_FORMULA,
+                "aic_ml": self.aic_ml, "bic_ml": self.bic_ml, "bic_ml_formula": self.BIC_ML_FORMULA}
+
+    def at(self, n_eff: float) -> "FitResult":
+        """This result scored at another effective sample size (a diagnosis's, to compare it with its models)."""
+        aic, bic = score(self.chi2, self.n_free, self.n_points, n_eff)
+        return dataclasses.replace(self, aic=aic, bic=bic, n_eff=float(n_eff))
+
+    def criteria_line(self, digits: int = 5) -> str:
+        return (f"    AIC        = {self.aic:.{digits}g}, BIC = {self.bic:.{digits}g} (against the error model, "
+                f"n_eff = {self.n_eff:.4g})")
 
     def correlation_pairs(self) -> list:
         """The correlations :meth:`report` lists, under the names ``parameters`` uses."""
