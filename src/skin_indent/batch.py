@@ -26,6 +26,7 @@ use, and at most three unit surfaces per mesh are built for any number of radii.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field, fields
@@ -187,12 +188,14 @@ def _surface_hash(surface) -> str:
 def _fit_task(context, prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, mesh=None,
               free=()):
     """One fit in a worker (:func:`~skin_indent.runtime.batch.run_tasks`; ``context`` is the worker's):
-    ``(FitResult, None)`` or ``(None, one-line error)`` (nothing raised)."""
+    ``(FitResult, None)`` or ``(None, one-line error)`` (nothing raised). The fitted force model
+    (``bound_model``: its surfaces, megabytes) stays in the worker; the row and a kept fit need its numbers."""
     try:
         if model is not None:
-            return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh,
-                       free=free), None
-        return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0, free=free), None
+            result = fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh, free=free)
+        else:
+            result = fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0, free=free)
+        return dataclasses.replace(result, bound_model=None), None
     except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
         return None, one_line(err)
 
