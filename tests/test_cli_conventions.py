@@ -206,7 +206,7 @@ def test_an_interruption_exits_130(command, target, monkeypatch, capsys, tmp_pat
 
 def _fake_fit(flags=(), success=True):
     result = SimpleNamespace(flags=tuple(flags), success=success, surface=None, radius_mm=6.22,
-                             report=lambda: "report", to_dict=lambda: {"E_kPa": 1.0})
+                             curves=[{"radius_mm": 6.22}], report=lambda: "report", to_dict=lambda: {"E_kPa": 1.0})
 
     def fit(*args, **kwargs):
         return result

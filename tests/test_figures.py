@@ -240,7 +240,7 @@ def test_fit_figure_says_baseline_removed_only_when_it_was(coarse_unit_surfaces,
 
     result = fit(load_csv(bundled_path(name)), mesh="coarse",
                  context=Context(cache_dir=coarse_unit_surfaces, workers=1, progress=False))
-    assert (result.prepared.baseline is not None) == removed  # the AFM curve has a pre-contact baseline
+    assert (result.data.baseline is not None) == removed  # the AFM curve has a pre-contact baseline
     top = fit_figure(result).axes[0]
     legend = _legend(top)
     assert ("approach (baseline removed)" in legend) == removed

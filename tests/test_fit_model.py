@@ -174,9 +174,15 @@ def test_fit_is_the_neo_hookean_fit_and_the_diagnosis_first_rung(hidden, cache, 
     named = fit(curve, model="neo-hooke", context=context)
     rung = diagnose(curve, max_rungs=0, in_loop=False, context=context, mesh="coarse").ladder[0]
     assert plain.model == named.model == rung.model == "neo-hooke"
+    assert type(plain) is type(named) is type(rung)  # one result type: the fit is the rung, its curve bound
     for r in (named, rung):
         assert r.parameters == plain.parameters and r.std == plain.std
         assert r.chi2 == plain.chi2 and r.noise_mN == plain.noise_mN
+        assert np.array_equal(r.prediction_mN, plain.prediction_mN) and r.ended == plain.ended
+    assert plain.structure == rung.structure and plain.white == rung.white
+    assert plain.curve_rms_mN == rung.curve_rms_mN and plain.rms_of_curves == rung.rms_of_curves
+    assert len(plain.prepared) == len(plain.curves) == 1 and plain.data is plain.prepared[0]
+    assert np.allclose(plain.prediction_mN, curve_force(plain), rtol=0, atol=1e-12)
     assert plain.bic == named.bic and plain.n_eff == named.n_eff
     assert plain.at(rung.n_eff).bic == pytest.approx(rung.bic, rel=1e-12)
     assert rung.at(plain.n_eff).bic == pytest.approx(plain.bic, rel=1e-12)
@@ -191,7 +197,7 @@ def test_fit_is_the_neo_hookean_fit_and_the_diagnosis_first_rung(hidden, cache, 
 
 def curve_force(result) -> np.ndarray:
     """The model's force at a fit's points (mN): measured minus residual."""
-    return result.prepared.force_mN - result.residuals_mN
+    return result.data.force_mN - result.residuals_mN
 
 
 def test_cli_fits_a_chosen_model_with_a_held_thickness_and_a_prior(cache, capsys, monkeypatch, tmp_path):
@@ -249,7 +255,7 @@ def test_a_load_unload_fit_of_a_chosen_model_is_plotted_and_tabulated_whole(hidd
 
     r = fit(hidden["v06_viscoelastic"], model="neo-hooke+viscoelastic", noise_mN=NOISE, context=context,
             mesh="coarse")
-    assert r.prepared.has("retract") and r.n_points == r.prepared.n == 200
+    assert r.data.has("retract") and r.n_points == r.data.n == 200
     a = fit_arrays(r)
     assert a["residual_mN"].size == 200
     np.testing.assert_allclose(a["force_mN"] - a["model_mN"], r.residuals_mN)

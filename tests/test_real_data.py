@@ -85,7 +85,7 @@ def test_chiaro_fit_with_nu_fixed_matches_the_instrument_hertz(unit_surface):
     result = fit(m, surface, fixed={"nu": 0.499}, radius_mm=CHIARO_R_MM)  # timed by benchmarks/threads.py
     print(f"\n{result.report()}")
     assert result.success
-    assert result.prepared.contact_mode == "fit" and result.prepared.baseline is not None
+    assert result.data.contact_mode == "fit" and result.data.baseline is not None
     assert abs(result.e_star_kPa / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.2
     assert abs(result.hertz["E_star_kPa"] / CHIARO_HERTZ_E_STAR_KPA - 1) < 0.1
     assert 0 < result.fe_vs_hertz_percent < 25  # large strain: FE needs a stiffer material than Hertz

@@ -123,6 +123,21 @@ def test_a_joint_fit_of_two_spheres_recovers_the_half_space_and_determines_nu_be
     for c in joint.curves:  # each curve explained to its own noise
         assert c["misfit"] < 1.3 and c["white"]
     assert joint.trusted
+    # one result: the joint fit is the ladder's rung of the same model on the same curves, its curves bound
+    from skin_indent.diagnosis import diagnose
+
+    rung = diagnose(two_spheres, max_rungs=0, in_loop=False, context=context).ladder[0]
+    assert type(rung) is type(joint) and rung.model == joint.model
+    assert rung.parameters == joint.parameters and rung.std == joint.std and rung.chi2 == joint.chi2
+    assert rung.curve_rms_mN == joint.curve_rms_mN and joint.rms_of_curves == [c["rms_mN"] for c in joint.curves]
+    # per curve: one entry each, the points split as each curve was prepared
+    assert len(joint.prepared) == len(joint.curves) == 2
+    parts = joint.per_curve(joint.prediction_mN)
+    assert [p.size for p in parts] == [p.n for p in joint.prepared]
+    for p, part, r in zip(joint.prepared, parts, joint.per_curve(joint.residuals_mN)):
+        assert np.allclose(part + r, p.force_mN, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="curves"):  # no one radius for two spheres: curves[k] says each
+        joint.radius_mm
 
 
 def test_two_loading_speeds_show_relaxation_that_one_ramp_cannot(context, diagnosis_surfaces, tmp_path):

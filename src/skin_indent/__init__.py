@@ -72,6 +72,7 @@ _EXPORTS = {
     "identify": "skin_indent.fitting",
     "surface_for": "skin_indent.fitting",
     "CurveFit": "skin_indent.fitting",
+    "FitResult": "skin_indent.fitting",
     "diagnose": "skin_indent.diagnosis",
     "diagnose_many": "skin_indent.diagnosis",
     "Diagnosis": "skin_indent.diagnosis",

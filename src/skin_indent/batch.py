@@ -26,6 +26,7 @@ use, and at most three unit surfaces per mesh are built for any number of radii.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field, fields
@@ -99,7 +100,7 @@ class BatchRow(CurveLocation):
     parameters, std : dict
         Every parameter of the model and its standard deviation (held ones without); the
         table gets a column ``NAME`` and ``NAME_sd`` for each beyond E_kPa and nu.
-    fit : CurveFit or None
+    fit : FitResult or None
         The whole fit, kept only when asked for (``fit_many(..., keep_fits=True)``).
     """
 
@@ -187,18 +188,20 @@ def _surface_hash(surface) -> str:
 def _fit_task(context, prepared, surface, method, fixed, tol, x0=None, model=None, priors=None, mesh=None,
               free=()):
     """One fit in a worker (:func:`~skin_indent.runtime.batch.run_tasks`; ``context`` is the worker's):
-    ``(CurveFit, None)`` or ``(None, one-line error)`` (nothing raised)."""
+    ``(FitResult, None)`` or ``(None, one-line error)`` (nothing raised). The fitted force model
+    (``bound_model``: its surfaces, megabytes) stays in the worker; the row and a kept fit need its numbers."""
     try:
         if model is not None:
-            return fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh,
-                       free=free), None
-        return fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0, free=free), None
+            result = fit(prepared, model=model, fixed=dict(fixed), priors=priors, context=context, mesh=mesh, free=free)
+        else:
+            result = fit(prepared, surface, method, fixed=dict(fixed), tol=tol, x0=x0, free=free)
+        return dataclasses.replace(result, bound_model=None), None
     except Exception as err:  # noqa: BLE001 - one row with the error, never the end of the batch
         return None, one_line(err)
 
 
 def _row_of(base: dict, result, surface) -> BatchRow:
-    p = result.prepared
+    p = result.data
     q = result.quality or {}
     return BatchRow(
         **base, radius_mm=result.radius_mm, E_kPa=result.parameters["E_kPa"],
@@ -281,7 +284,7 @@ def fit_many(paths, *, index: int | None = None, radius_mm: float | None = None,
     x0 : array_like, optional
         Start values (E_kPa, nu) of every fit; default a Hertz estimate per curve.
     keep_fits : bool
-        Keep each :class:`~skin_indent.fitting.CurveFit` in its row (``row.fit``).
+        Keep each :class:`~skin_indent.fitting.FitResult` in its row (``row.fit``).
     plot_dir : path, optional
         Write a plot (:func:`skin_indent.report.fit_figure.plot_fit`, ``NAME_INDEX.png``) and a
         CSV of depth, force, model and residual (``NAME_INDEX.csv``) per fitted curve

@@ -219,34 +219,8 @@ def _fit_sample(args) -> int:
                 "priors": {k: list(v) for k, v in priors.items()}, "mesh": args.mesh or "coarse", "index": args.index,
                 "sample": True}
     prov = command_provenance(args, list(args.data), settings)
-    return _sample_output(args, result, prov)
-
-
-def _sample_output(args, result, prov) -> int:
-    """Write the figure and table of a fit of several curves, print its report or JSON and the flags."""
-    from ..runtime.json_io import dumps
-    from ..runtime.provenance import with_provenance
-
-    if args.plot is not None:
-        from ..report.sample_figure import plot_sample_fit, write_sample_fit_csv
-
-        args.plot.mkdir(parents=True, exist_ok=True)
-        stem = "+".join(p.stem for p in args.data)
-        figure = plot_sample_fit(result, args.plot / f"{stem}.png", provenance=prov)
-        table = write_sample_fit_csv(result, args.plot / f"{stem}.csv", prov)
-    if args.json:
-        print(dumps(with_provenance(result.to_dict(), prov)))
-    else:
-        print(result.report())
-        if args.plot is not None:
-            print(f"wrote {figure} and {table}")
-    label = " + ".join(str(p) for p in args.data)
-    for flag in result.flags:
-        print(f"skin-indent fit: warning: {label}: {flag}", file=sys.stderr)
-    if not result.success:
-        print(f"skin-indent fit: warning: {label}: {_not_converged(result)}", file=sys.stderr)
-        return EXIT_FLAGGED
-    return EXIT_FLAGGED if (args.strict and result.flags) else EXIT_OK
+    return _fit_output(args, " + ".join(str(p) for p in args.data), "+".join(p.stem for p in args.data), result,
+                       prov)
 
 
 def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
@@ -280,7 +254,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
         result = fit(prepared, model=args.model or "neo-hooke", fixed=fixed, priors=args.priors,
                      noise_mN=args.noise, context=context, mesh=args.mesh, free=args.free)
         settings = _fit_settings(args, fixed, window, args.priors)
-        code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+        code = _fit_output(args, path, path.stem, result,
+                           command_provenance(args, _fit_inputs(args), settings, result.surface))
         if result.success:
             _save_profile(args, settings)
         return code
@@ -295,7 +270,8 @@ def _fit_one(args, measurement, surface, fixed, window, x0, context) -> int:
     result = fit(prepared, surface, args.method, window=window, contact=args.contact, fixed=fixed, x0=x0, tol=args.tol,
                  noise_mN=args.noise, context=context, mesh=args.mesh, free=args.free)
     settings = _fit_settings(args, fixed, window)
-    code = _fit_output(args, path, result, command_provenance(args, _fit_inputs(args), settings, result.surface))
+    code = _fit_output(args, path, path.stem, result,
+                           command_provenance(args, _fit_inputs(args), settings, result.surface))
     if result.success:  # a failed fit leaves no profile
         _save_profile(args, settings)
     return code
@@ -317,8 +293,9 @@ def _fit_inputs(args) -> list:
     return [*args.data, *(p for p in (args.profile, args.surface) if p is not None)]
 
 
-def _fit_output(args, path, result, prov) -> int:
-    """Write the plots, print the report or JSON and the flags; the exit status."""
+def _fit_output(args, label, stem, result, prov) -> int:
+    """Write the figure and table (``STEM.png``, ``STEM.csv``), print the report or JSON and the flags
+    (each line starting with ``label``: the file, or the files of a sample); the exit status."""
     from ..measurement.scale import display_units, shown_in
     from ..runtime.json_io import dumps
     from ..runtime.provenance import with_provenance
@@ -327,19 +304,19 @@ def _fit_output(args, path, result, prov) -> int:
         from ..report.fit_figure import plot_fit, write_fit_csv
 
         args.plot.mkdir(parents=True, exist_ok=True)
-        plot_fit(result, args.plot / f"{path.stem}.png", provenance=prov)
-        write_fit_csv(result, args.plot / f"{path.stem}.csv", prov)
+        figure = plot_fit(result, args.plot / f"{stem}.png", provenance=prov)
+        table = write_fit_csv(result, args.plot / f"{stem}.csv", prov)
     if args.json:
         print(dumps(with_provenance(result.to_dict(), prov)))
     else:
         print(result.report())
         if args.plot is not None:
-            print(f"wrote {args.plot / (path.stem + '.png')} and {args.plot / (path.stem + '.csv')}")
-    units = display_units(result.radius_mm)
+            print(f"wrote {figure} and {table}")
+    units = display_units(result.curves[0]["radius_mm"])
     for flag in result.flags:
-        print(f"skin-indent fit: warning: {path}: {shown_in(flag, units)}", file=sys.stderr)
-    if not result.success:  # a failed curve (exit 3 as a flagged one), said on stderr
-        print(f"skin-indent fit: warning: {path}: {_not_converged(result)}", file=sys.stderr)
+        print(f"skin-indent fit: warning: {label}: {shown_in(flag, units)}", file=sys.stderr)
+    if not result.success:  # a failed fit (exit 3 as a flagged one), said on stderr
+        print(f"skin-indent fit: warning: {label}: {_not_converged(result)}", file=sys.stderr)
         return EXIT_FLAGGED
     return EXIT_FLAGGED if (args.strict and result.flags) else EXIT_OK
 

@@ -19,12 +19,13 @@ from ..measurement import PreparedCurve
 from ..measurement.scale import PACKAGE_UNITS, DisplayUnits, display_units, shown_in
 from ..fitting.bodies import bodies, body_lines
 from ..fitting.knowledge import DETERMINED_BY
-from ..fitting.rung import MODEL_ERROR, Rung
+from ..fitting.result import FitResult
+from ..fitting.rung import MODEL_ERROR
 from ..runtime.json_io import jsonable
 from .criteria import FROM_FE, FROM_FIT, STRONG
 from .segment_misfit import segments_sentence
 
-def _fmt_params(f: Rung, units: DisplayUnits) -> str:
+def _fmt_params(f: FitResult, units: DisplayUnits) -> str:
     """A rung's parameters as the text of a diagnosis shows them, ``name = value +- sd``, in ``units``
     (names and values as :meth:`~skin_indent.measurement.scale.DisplayUnits.name` and ``factor`` make
     them: ``E_Pa = 203.9 +- 1.9`` at AFM scale for ``E_kPa = 0.2039 +- 0.0019``)."""
@@ -51,7 +52,7 @@ class Diagnosis:
 
     Plain data: :func:`~.workflow.diagnose` computes everything, and every output (:meth:`report`,
     :meth:`sentence`, :meth:`to_dict`, :func:`~.report.write_report`) reads the same rungs,
-    one :class:`Rung` per model (its parameters, standard deviations, RMS and BIC).
+    one :class:`FitResult` per model (its parameters, standard deviations, RMS and BIC).
 
     The numbers are held in the package units (mm, mN, kPa). :attr:`units` decides, once, the
     units the text, the sentences, the HTML page and the figures show them in: um, nN and Pa for
@@ -60,7 +61,7 @@ class Diagnosis:
 
     Attributes
     ----------
-    ladder : list of Rung
+    ladder : list of FitResult
         From the base model through the effects added by hand to those the climb added;
         ``current`` is the last.
     ranking, not_detectable : list, dict
@@ -77,7 +78,7 @@ class Diagnosis:
         The effective sample size of every BIC of the diagnosis (one value).
     steps : list of Step
         Every examination of the climb.
-    alternatives : list of Rung
+    alternatives : list of FitResult
         The end rungs of the other explanations climbed (a beam of :data:`~.criteria.BEAM`).
     explained : bool
         The last rung explains the curve to the noise (:func:`~.criteria.explained`).
@@ -174,7 +175,7 @@ class Diagnosis:
             if self.segments else ""
 
     @property
-    def current(self) -> Rung:
+    def current(self) -> FitResult:
         return self.ladder[-1]
 
     @property
@@ -187,7 +188,7 @@ class Diagnosis:
         return display_units(float(first.radius_mm))
 
     @property
-    def base(self) -> Rung:
+    def base(self) -> FitResult:
         return self.ladder[0]
 
     @property
@@ -276,7 +277,7 @@ class Diagnosis:
     def _these(self) -> str:
         return f"these {len(self.curves)} curves" if self.joint else "this curve"
 
-    def _rms(self, f: Rung, units: DisplayUnits, digits: int = 3) -> str:
+    def _rms(self, f: FitResult, units: DisplayUnits, digits: int = 3) -> str:
         """A rung's RMS as the sentences show it, in ``units.force`` (the unit is not written): each
         curve's, in input order, for several."""
         k = units.per_mN
@@ -489,7 +490,7 @@ class Diagnosis:
                     "radius_mm": self.radius_mm, "noise_mN": self.noise_mN, "noise_source": self.noise_source}
         return jsonable({
             **head,
-            "bic_formula": Rung.BIC_FORMULA,
+            "bic_formula": FitResult.BIC_FORMULA,
             "model_error": MODEL_ERROR,
             "n_effective": self.n_effective,
             **({} if self.joint else {"baseline_mN": self.data.baseline_mN, "contact_point_mm": float(contact)}),
@@ -544,20 +545,20 @@ class Step:
 
     Attributes
     ----------
-    rung : Rung
+    rung : FitResult
         The model examined.
-    ranking : list of Rung
+    ranking : list of FitResult
         The candidates, best BIC first (``effects[-1]`` is the one added).
     not_detectable : dict
         Candidates that cannot show in these data (or that no fitted model has), with why.
     verdict : str
         The effect named (its BIC lower by more than :data:`~.criteria.STRONG`, no rival within
         :data:`~.criteria.CLOSE`), ``"none"`` or ``"ambiguous"``.
-    rivals : list of Rung
+    rivals : list of FitResult
         Candidates the data do not exclude (BIC within :data:`~.criteria.RIVAL` of the best).
     """
 
-    rung: Rung
+    rung: FitResult
     ranking: list
     not_detectable: dict
     verdict: str

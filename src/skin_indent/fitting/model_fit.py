@@ -18,16 +18,15 @@ import math
 
 import numpy as np
 
-from ..effects import CONTACT_POINT, parse_effects
+from ..effects import parse_effects
 from ..measurement import SEGMENTS, CurveSet, MeasurementError, PreparedCurve, prepare
-from .curve import CurveFit, quality, with_scale_flags
+from .curve import quality, with_scale_flags
 from .ended import limit_notes
 from .error_model import NOISE_POINTS, curve_noise, per_curve, sample_noise  # noqa: F401 - the diagnosis reads them here
 from .identification import hertz_modulus, run_method
 from .multistart import Fitter
-from .result import ScoredResult, curve_summaries, knowledge_of
+from .result import FitResult, curve_summaries, knowledge_of
 from .rung import reported_correlations
-from .sample_fit import sample_fit_of
 from .scale_checks import MISFIT_FLAG
 from .surfaces import interpolation_flags
 from ..models import HertzModel
@@ -81,7 +80,7 @@ def _hertz(prepared: PreparedCurve) -> dict:
 
 def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dict | None = None,
               noise_mN: float | None = None, radius_mm: float | None = None, segments=SEGMENTS,
-              in_loop: bool = True, context=None, mesh: str = "coarse") -> CurveFit:
+              in_loop: bool = True, context=None, mesh: str = "coarse") -> FitResult:
     """Fit ``model`` to a recorded curve, holding ``fixed`` and weighing ``priors``.
 
     Parameters
@@ -119,8 +118,9 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
 
     Returns
     -------
-    CurveFit or SampleFit
-        A :class:`~skin_indent.fitting.sample_fit.SampleFit` for several curves. ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
+    FitResult
+        The rung of ``model`` the diagnosis's ladder holds, its curves bound (:func:`bound`), of one
+        curve or several. ``model`` names the model; ``chi2`` weighs the residuals by the error model (noise and
         model error in quadrature), so ``redchi`` is about 1 when the model explains the curve;
         ``bic`` the rung's (:data:`~skin_indent.fitting.error_model.BIC_FORMULA`, at its own ``n_eff``);
         ``flags`` with the scale checks' (:func:`~skin_indent.fitting.scale_checks.scale_flags`).
@@ -163,10 +163,7 @@ def fit_model(data, model="neo-hooke", *, fixed: dict | None = None, priors: dic
             fitter.fit(effects[:i])
         except ValueError:
             pass  # a simpler model that cannot be fitted: the model is started from its own values
-    rung = fitter.fit(effects)
-    if len(curves) > 1:
-        return sample_fit_of(rung, fitter, noise_sources=sources)
-    return curve_fit_of(rung, fitter, noise_source=sources[0])
+    return bound(fitter.fit(effects), fitter, noise_sources=sources)
 
 
 def _check_held(fitter: Fitter, model) -> None:
@@ -180,17 +177,39 @@ def _check_held(fitter: Fitter, model) -> None:
                                 "the paper's identification" if name == "nu" else ""))
 
 
-def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
-    """The :class:`CurveFit` of a fitted rung: the numbers the ladder shows, with the data
-    treatment, Hertz's fit of the same loading points, the quality and the flags (with the scale
-    checks', :func:`~skin_indent.fitting.scale_checks.scale_flags`)."""
-    prepared = fitter.data
-    k = rung.n_free
+def bound(rung, fitter: Fitter, *, noise_sources) -> FitResult:
+    """``rung`` (the fitter's result of a model: the numbers the ladder shows) with its curves bound: each
+    curve's data treatment and misfit, E*, Hertz's fit and the quality of a fit of one curve, the flags
+    (how the fit ended, a misfit far above a curve's noise, priors in tension, the surfaces' edges, the
+    scale checks', :func:`~skin_indent.fitting.curve.with_scale_flags`) and the notes."""
+    curves = curve_summaries(rung, fitter, noise_sources)
+    several = len(fitter.curves) > 1
+    flags, notes = list(rung.flags), []  # how the fit ended (fitting.ended), as the ladder shows it
+    for k, (c, cv) in enumerate(zip(fitter.curves, curves)):
+        where = f"curve {k + 1} ({c.source}): " if several else ""
+        if cv["misfit"] > MISFIT_FLAG:
+            flags.append(f"{where}misfit {cv['misfit']:.3g} x the noise ({cv['noise_source']}): the model does not "
+                         "describe this curve and its parameters are not to be trusted")
+        notes += [f"{where}{n}" if where else n for n in c.notes]
+    known_flags, known_notes = knowledge_of(rung, fitter)
+    flags += known_flags + interpolation_flags(rung.bound_model, rung.x)
+    notes += known_notes + limit_notes(rung, rung.bound_model, rung.x)
+    one = {}
+    if not several:  # Hertz's fit of the loading points and the verdict of one curve
+        one = {"hertz": _hertz(fitter.data),
+               "quality": quality(fitter.data, rung.residuals_mN, rung.n_free, noise=(fitter.noise_mN, noise_sources[0]),
+                                  white=None if rung.analysis is None else rung.white, ended=rung.ended)}
+    result = dataclasses.replace(rung, prepared=tuple(fitter.curves), curves=curves, flags=tuple(dict.fromkeys(flags)),
+                                 notes=notes, surface=surface_identity(fitter.cores) or [],
+                                 correlations=reported_correlations(rung), **_e_star_of(rung), **one)
+    ended = tuple(n for e in rung.ended for n in e.parameters)  # by the names results report (ratio)
+    return with_scale_flags(result, at_bounds=tuple(rung.at_bounds) + ended)
+
+
+def _e_star_of(rung) -> dict:
+    """E* = E / (1 - nu^2) of the (top) material and its sd, from E, nu, their sd and correlation."""
     p = rung.parameters
-    contact = p.get(CONTACT_POINT.parameters[0].name, prepared.contact_guess_mm)
-    contact_sd = rung.std.get(CONTACT_POINT.parameters[0].name)
     E, nu = p["E_kPa"], p["nu"]
-    e_star = E / (1 - nu**2)
     sd_E, sd_nu = rung.std.get("E_kPa", 0.0), rung.std.get("nu", 0.0)
     rho = 0.0
     if "E_kPa" in rung.free_names and "nu" in rung.free_names:
@@ -199,24 +218,4 @@ def curve_fit_of(rung, fitter: Fitter, *, noise_source: str) -> CurveFit:
     g = np.array([1 / (1 - nu**2), 2 * E * nu / (1 - nu**2) ** 2])
     C = np.array([[sd_E**2, rho * sd_E * sd_nu], [rho * sd_E * sd_nu, sd_nu**2]])
     var = float(g @ C @ g)
-    q = quality(prepared, rung.residuals_mN, k, noise=(fitter.noise_mN, noise_source), white=None if rung.analysis is None else rung.white,
-                ended=rung.ended)
-    flags = list(rung.flags)  # how the fit ended (fitting.ended), as the ladder shows it
-    if q and q["misfit"] > MISFIT_FLAG:
-        flags.append(f"misfit {q['misfit']:.3g} x the noise ({q['noise_source']}): the model does not describe "
-                     "this curve and its parameters are not to be trusted")
-    known_flags, known_notes = knowledge_of(rung, fitter)
-    flags += known_flags
-    flags += interpolation_flags(rung.bound_model, rung.x)
-    notes = list(prepared.notes) + known_notes + limit_notes(rung, rung.bound_model, rung.x)
-    base = {f.name: getattr(rung, f.name) for f in dataclasses.fields(ScoredResult)}
-    result = CurveFit(**base, prepared=prepared, radius_mm=float(prepared.radius_mm), contact_point_mm=float(contact),
-                      contact_point_std_mm=None if contact_sd is None else float(contact_sd), e_star_kPa=e_star,
-                      e_star_std_kPa=math.sqrt(var) if var >= 0 else math.nan, hertz=_hertz(prepared), quality=q,
-                      flags=tuple(flags), notes=notes, surface=surface_identity(fitter.cores) or [], model=rung.model,
-                      curves=curve_summaries(rung, fitter, [noise_source]),
-                      priors=dict(rung.priors), error_model=fitter.error_model(),
-                      correlations=reported_correlations(rung))
-    ended = tuple(n for e in rung.ended for n in e.parameters)  # by the names results report (ratio)
-    return with_scale_flags(result, at_bounds=tuple(rung.at_bounds) + ended)
-
+    return {"e_star_kPa": E / (1 - nu**2), "e_star_std_kPa": math.sqrt(var) if var >= 0 else math.nan}

@@ -17,16 +17,17 @@ from ..effects import model_name
 from ..measurement.preparation import SKIN_RADIUS_MM
 from ..measurement.scale import Quantity, UnitText, afm_scale
 from ..runtime.provenance import records_call
-from .curve import CurveFit, fit_half_space, with_scale_flags
+from .curve import fit_half_space, with_scale_flags
 from .identification import METHODS, NEARLY_INCOMPRESSIBLE_NU
-from .model_fit import fit_model, parse_model
+from .model_fit import fit_model, is_several, parse_model
+from .result import FitResult
 
 
 @records_call("skin_indent.fit")
 def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = "auto", fixed: dict | None = None,
         radius_mm: float | None = None, x0=None, tol: float | None = None, noise_mN: float | None = None,
         context=None, mesh: str | None = None, model=None, priors: dict | None = None, free=(),
-        **options) -> CurveFit:
+        **options) -> FitResult:
     """Fit a recorded curve (or several of one sample): one fit for every model.
 
     Every fit is :func:`~skin_indent.fitting.model_fit.fit_model`, the fit the diagnosis makes
@@ -45,7 +46,7 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
         The whole curve as recorded (approach, hold, retract; any baseline; contact
         anywhere), or a curve already prepared with :func:`skin_indent.measurement.prepare`.
         A list is several curves of one sample fitted together (the model path, default
-        ``model="neo-hooke"``): a :class:`~skin_indent.fitting.sample_fit.SampleFit`.
+        ``model="neo-hooke"``), one result as for one curve (each curve's in ``prepared`` and ``curves``).
     surface : ResponseSurface, optional
         A neo-Hookean surface (any radius: rescaled by similarity); default found in the
         cache or built (``context``, ``mesh``).
@@ -85,8 +86,9 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
 
     Returns
     -------
-    CurveFit
-        With the scale checks' flags (:func:`~skin_indent.fitting.scale_checks.scale_flags`: a
+    FitResult
+        The one result of every fit (the rung of the model a diagnosis's ladder holds, with its curves
+        bound), with the scale checks' flags (:func:`~skin_indent.fitting.scale_checks.scale_flags`: a
         modulus no tissue or gel has, h/R below what instruments resolve, few points in contact, a
         parameter whose sd exceeds its value), each naming the likely slip.
 
@@ -113,7 +115,7 @@ def fit(data, surface=None, method: str = "lsq", *, window=None, contact: str = 
     if "nu" in fixed and "nu" in free:
         raise ValueError(f"nu is both held (at {fixed['nu']:g}) and freed: give one of them")
     paper = paper_identification(method, window=window, contact=contact, surface=surface, x0=x0, tol=tol)
-    several = isinstance(data, (list, tuple)) or hasattr(data, "curves")
+    several = is_several(data)
     effects = parse_model("neo-hooke" if model is None else model)
     if paper:
         if effects or priors or several:
@@ -200,7 +202,7 @@ def _radius_of(data, radius_mm) -> float:
 LIMIT_NU = (0.49, NEARLY_INCOMPRESSIBLE_NU)
 
 
-def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> CurveFit:
+def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> FitResult:
     """:func:`fit` with nu = 0.5: the incompressible limit of the compressible finite-element law.
 
     The law needs nu < 0.5, but its force converges as nu -> 0.5 at fixed
@@ -214,7 +216,7 @@ def incompressible_limit(data, surface=None, method: str = "lsq", **kwargs) -> C
     return fit(data, surface, method, fixed={**fixed, "nu": 0.5}, **kwargs)
 
 
-def _incompressible(fit_at) -> CurveFit:
+def _incompressible(fit_at) -> FitResult:
     """The nu = 0.5 limit from ``fit_at(nu)``, the fits at the nu of :data:`LIMIT_NU` (:func:`incompressible_limit`)."""
     fits = {nu: fit_at(nu) for nu in LIMIT_NU}
     lo, hi = LIMIT_NU

@@ -120,13 +120,13 @@ def _signed(name: str) -> bool:
 
 
 def scale_flags(result, *, free_names=None, at_bounds=()) -> list[str]:
-    """The scale flags of a fit (see the module docstring); empty for a plausible one.
+    """The scale flags of a fit (see the module docstring), each curve's own; empty for a plausible one.
 
     Parameters
     ----------
-    result : CurveFit
-        The fit (``parameters``, ``std``, ``radius_mm``, ``prepared``, ``contact_point_mm``,
-        ``n_free``).
+    result : FitResult
+        The fit (``parameters``, ``std``, ``prepared`` and ``curves``: each curve's points and its
+        ``contact_point_mm``, ``n_free``), of one curve or several (their flags name the curve).
     free_names : sequence of str, optional
         The fitted parameters by the names ``parameters`` reports (default those in ``std``).
     at_bounds : sequence of str
@@ -138,8 +138,12 @@ def scale_flags(result, *, free_names=None, at_bounds=()) -> list[str]:
     list of str
     """
     flags = modulus_flags(result.parameters.get("E_kPa", math.nan))
-    flags += depth_ratio_flags(result.max_depth_ratio, result.radius_mm)
-    flags += points_flags(contact_points(result.prepared, result.contact_point_mm), int(result.n_free))
+    several = len(result.curves) > 1
+    for k, (p, c) in enumerate(zip(result.prepared, result.curves)):
+        ratio = float((np.max(p.depth_mm) - c["contact_point_mm"]) / p.radius_mm)
+        flags += depth_ratio_flags(ratio, float(p.radius_mm), f"curve {k + 1} ({p.source}): " if several else "")
+    n_contact = sum(contact_points(p, c["contact_point_mm"]) for p, c in zip(result.prepared, result.curves))
+    flags += points_flags(n_contact, int(result.n_free))
     names = list(result.std) if free_names is None else list(free_names)
     flags += undetermined_flags(result.parameters, result.std, names, at_bounds)
     return flags

@@ -2,12 +2,15 @@
 
 - :func:`fit_arrays`: the fitted points (recorded depth, force with the baseline
   removed), the model force at them and the residual, from a
-  :class:`~skin_indent.fitting.CurveFit`;
+  :class:`~skin_indent.fitting.FitResult` of one curve;
 - :func:`fit_figure`: the figure of the data, the model (and Hertz's fit of the same
   points), the contact point and the fitted range, and the residuals against the noise;
   :func:`plot_fit` writes it as a PNG;
 - :func:`write_fit_csv`: a CSV of depth, force, model and residual with a provenance
   header.
+
+A fit of several curves of one sample gets the figure and table of
+:mod:`.sample_figure` (one column per curve) from the same three functions.
 
 The model force is the fitted model at the fitted parameters (for a fitted contact
 point, the neo-Hookean surface with the ``offset`` effect, as
@@ -27,6 +30,7 @@ from ..runtime.atomic import atomic_write
 from ..runtime.provenance import provenance_comment_lines
 from ._save import save_figure
 from .labels import model_label
+from .sample_figure import sample_fit_figure, write_sample_fit_csv
 
 __all__ = ["fit_arrays", "fit_figure", "plot_fit", "write_fit_csv"]
 
@@ -36,7 +40,7 @@ def fit_arrays(curve_fit) -> dict:
 
     Parameters
     ----------
-    curve_fit : CurveFit
+    curve_fit : FitResult
         From :func:`skin_indent.fitting.fit`.
 
     Returns
@@ -51,7 +55,7 @@ def fit_arrays(curve_fit) -> dict:
     ValueError
         If the fit's residuals do not belong to its prepared points.
     """
-    p = curve_fit.prepared
+    p = curve_fit.data
     if p.contact_mode == "fit" or np.size(curve_fit.residuals_mN) == p.n:  # every prepared point (fit(model=...))
         depth, force = np.asarray(p.depth_mm, float), np.asarray(p.force_mN, float)
     else:  # the loading points in contact, as fit() takes them
@@ -87,7 +91,7 @@ def fit_figure(curve_fit, *, title: str | None = None):
 
     Parameters
     ----------
-    curve_fit : CurveFit
+    curve_fit : FitResult
         From :func:`skin_indent.fitting.fit`.
     title : str, optional
         Default: the source, the sphere radius and the quality verdict.
@@ -98,8 +102,10 @@ def fit_figure(curve_fit, *, title: str | None = None):
     """
     from matplotlib.figure import Figure
 
+    if len(curve_fit.prepared) > 1:  # several curves of one sample: a column each
+        return sample_fit_figure(curve_fit)
     a = fit_arrays(curve_fit)
-    p = curve_fit.prepared
+    p = curve_fit.data
     m = p.measurement
     approach = m.loading() if m.has_time else m
     raw_d = np.asarray(approach.depth_mm, float)
@@ -153,7 +159,7 @@ def plot_fit(curve_fit, path, *, title: str | None = None, dpi: int = 110, prove
 
     Parameters
     ----------
-    curve_fit : CurveFit
+    curve_fit : FitResult
         From :func:`skin_indent.fitting.fit`.
     path : path
         The PNG (written atomically, mode 0644 under the usual umask).
@@ -177,7 +183,7 @@ def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
 
     Parameters
     ----------
-    curve_fit : CurveFit
+    curve_fit : FitResult
         From :func:`skin_indent.fitting.fit`.
     path : path
         The CSV (written atomically, mode 0644 under the usual umask).
@@ -197,8 +203,10 @@ def write_fit_csv(curve_fit, path, provenance: dict | None = None) -> Path:
     radius (``# radius_mm: R``), the contact point, E and nu, so that
     :func:`skin_indent.measurement.load_csv` reads the file back as a curve with its radius.
     """
-    a = fit_arrays(curve_fit)
     provenance = provenance or getattr(curve_fit, "provenance", None)
+    if len(curve_fit.prepared) > 1:  # several curves of one sample: a column ``curve`` numbers them
+        return write_sample_fit_csv(curve_fit, path, provenance)
+    a = fit_arrays(curve_fit)
     lines = provenance_comment_lines(provenance) if provenance else []
     lines += [f"# radius_mm: {curve_fit.radius_mm:.10g}",
               f"# fit: E_kPa {curve_fit.parameters['E_kPa']:.10g}, nu {curve_fit.parameters['nu']:.10g}, "

@@ -31,18 +31,14 @@ __all__ = ["plot_sample_fit", "sample_diagnosis_figure", "sample_fit_arrays", "s
 
 
 def sample_fit_arrays(result) -> list[dict]:
-    """Per curve of a :class:`~skin_indent.fitting.sample_fit.SampleFit`: ``depth_mm``, ``force_mN``,
+    """Per curve of a :class:`~skin_indent.fitting.FitResult` of several curves: ``depth_mm``, ``force_mN``,
     ``model_mN``, ``residual_mN`` (= force - model) and ``indentation_mm`` (past its contact point)."""
-    out, start = [], 0
-    residual = np.asarray(result.residuals_mN, dtype=float)
-    for p, c in zip(result.prepared, result.curves):
-        r = residual[start:start + p.n]
-        start += p.n
+    out = []
+    residuals = result.per_curve(np.asarray(result.residuals_mN, dtype=float))
+    for p, c, r in zip(result.prepared, result.curves, residuals):
         depth, force = np.asarray(p.depth_mm, float), np.asarray(p.force_mN, float)
         out.append({"depth_mm": depth, "force_mN": force, "model_mN": force - r, "residual_mN": r,
                     "indentation_mm": depth - c["contact_point_mm"]})
-    if start != residual.size:
-        raise ValueError(f"the fit has {residual.size} residuals for {start} prepared points")
     return out
 
 
@@ -52,7 +48,8 @@ def sample_fit_figure(result):
 
     Parameters
     ----------
-    result : SampleFit
+    result : FitResult
+        Of several curves of one sample.
 
     Returns
     -------
