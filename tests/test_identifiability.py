@@ -269,3 +269,26 @@ def test_physical_limits_are_declared_not_named():
     assert not at_physical_limit(model, mid, "no such parameter")
     with pytest.raises(ValueError, match="physical_limit"):
         EffectParameter("x", "-", 0.0, 1.0, None, False, "x", physical_limit="top")
+
+
+def test_the_engine_weighs_by_the_one_error_model(monkeypatch):
+    """Issue 38: the separation and the information blocks weigh each point by the error model of every
+    fit (``fitting.error_model.point_sigma``), the numbers those of sqrt(noise^2 + (0.003 F)^2)."""
+    from skin_indent.diagnosis import measurements
+    from skin_indent.fitting.error_model import MODEL_ERROR, point_sigma
+
+    fa, fb, noise = np.array([0.0, 1.0, 5.0, 12.0]), np.array([0.01, 1.05, 5.2, 12.5]), 0.04
+    sigma = np.sqrt(noise**2 + (0.003 * 0.5 * (fa + fb)) ** 2)
+    assert MODEL_ERROR == 0.003
+    np.testing.assert_array_equal(measurements.error_model(0.5 * (fa + fb), noise), point_sigma(noise, 0.5 * (fa + fb)))
+    s = measurements.separation("a", "b", fa, fb, noise)
+    assert s.separation == pytest.approx(float(np.sqrt(np.sum(((fb - fa) / sigma) ** 2))), rel=1e-12)
+    calls = []
+
+    def spy(noise_mN, force_mN, model_error=MODEL_ERROR):
+        calls.append(noise_mN)
+        return point_sigma(noise_mN, force_mN, model_error)
+
+    monkeypatch.setattr(measurements, "point_sigma", spy)
+    assert measurements.separation("a", "b", fa, fb, noise).separation == s.separation
+    assert measurements.error_model(fa, 0.02).shape == fa.shape and calls == [noise, 0.02]

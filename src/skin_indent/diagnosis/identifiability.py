@@ -30,7 +30,8 @@ the fitted model fits one), with the priors' rows,
 (:func:`~.measurements.joint_std`) with :math:`J_k` the finite-element Jacobian of the fitted
 model at its values on curve :math:`k`'s points (:func:`~.measurements.predicted_force`:
 direct-differentiation sensitivities, one run per thickness), :math:`\sigma_k` the recorded
-noise and :math:`\varepsilon` = :data:`~skin_indent.fitting.rung.MODEL_ERROR`. The candidate
+noise and :math:`\varepsilon` = :data:`~skin_indent.fitting.error_model.MODEL_ERROR`
+(:func:`~skin_indent.fitting.error_model.point_sigma`, the error model of every fit). The candidate
 alone would overstate what it leaves undetermined: its correlations differ from the recorded
 curve's, and fitted together the two break each other's (on the forearm-like curve a sphere of
 twice the radius alone leaves the thickness at +- 0.28 mm, fitted with the recorded curve at
@@ -56,13 +57,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..fitting.error_model import point_sigma
 from ..fitting.knowledge import prior_rows
 from ..measurement.scale import Name, Quantity, UnitText
 from ..models import JointModel
 from ..models.composed import at_physical_limit
 from .criteria import FROM_FE, FROM_FIT, RIVAL
 from .measurements import (DEEPER, HOLD_S, Block, Candidate, Separation, acts_in_time, base_history, deeper,
-                           error_model, free_columns, hold, joint_std, model_of, predict, recorded_history,
+                           free_columns, hold, joint_std, model_of, predict, recorded_history,
                            separation, speed, sphere)
 
 log = logging.getLogger(__name__)
@@ -351,7 +353,7 @@ def weigh(rungs, current, curves, noises, *, with_std: bool, priors=None, mesh: 
 
     def block(key, n, own):
         v = got.get(key)
-        return Block(v[1], v[2], error_model(v[0], n), own=own) if isinstance(v, tuple) else None
+        return Block(v[1], v[2], point_sigma(n, v[0]), own=own) if isinstance(v, tuple) else None
 
     terms = prior_terms(priors, current.bound_model) if with_std else ()
     free = free_columns(current) if with_std else []

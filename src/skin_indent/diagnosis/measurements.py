@@ -24,7 +24,8 @@ the diagnosis' sentences and :func:`~skin_indent.diagnosis.planning.plan` read):
       \qquad \sigma_i^2 = \sigma^2 + \big(\varepsilon \tfrac{F_{a,i} + F_{b,i}}{2}\big)^2,
 
   with :math:`\sigma` the noise of the recorded curve and :math:`\varepsilon` =
-  :data:`~skin_indent.fitting.rung.MODEL_ERROR`, the error model of every fit.
+  :data:`~skin_indent.fitting.error_model.MODEL_ERROR`, the error model of every fit
+  (:func:`~skin_indent.fitting.error_model.point_sigma`).
   :math:`S^2` is how much the chi-square of one explanation rises over the candidate's
   points if the other is true and neither is refitted: an upper bound of what a joint fit
   of the recorded curves and the candidate would show (refitting absorbs part of it; a
@@ -48,7 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..effects import DEPTH, HISTORY, Model, instances
-from ..fitting.rung import MODEL_ERROR
+from ..fitting.error_model import point_sigma
 from ..inverse.result import jacobian_covariance
 from ..measurement.preparation import MAX_DEPTH_RATIO
 from ..measurement.scale import Quantity, UnitText
@@ -430,8 +431,9 @@ def predict(tasks: dict, *, context=None) -> dict:
 
 # ----------------------------------------------------------------------------- separation
 def error_model(force, noise_mN: float) -> np.ndarray:
-    """sigma_i (mN) of predicted forces: the noise and the model error in quadrature (as every fit)."""
-    return np.sqrt(noise_mN**2 + (MODEL_ERROR * np.abs(np.asarray(force, dtype=float))) ** 2)
+    """sigma_i (mN) of predicted forces: the one error model of every fit,
+    :func:`~skin_indent.fitting.error_model.point_sigma` (the noise and the model error in quadrature)."""
+    return point_sigma(noise_mN, force)
 
 
 @dataclass(frozen=True)
@@ -468,7 +470,7 @@ def separation(a: str, b: str, fa, fb, noise_mN: float) -> Separation:
     fa, fb = np.asarray(fa, dtype=float), np.asarray(fb, dtype=float)
     d = fb - fa
     top = float(np.max(np.abs(d)))
-    s = float(np.sqrt(np.sum((d / error_model(0.5 * (fa + fb), noise_mN)) ** 2)))
+    s = float(np.sqrt(np.sum((d / point_sigma(noise_mN, 0.5 * (fa + fb))) ** 2)))
     return Separation(a, b, top, top / noise_mN, s, int(d.size))
 
 

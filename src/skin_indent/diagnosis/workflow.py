@@ -84,6 +84,7 @@ from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RI
 from .result import Diagnosis, Step
 from .instrument import at_physical_range, examine_instrument
 from .segment_misfit import segment_misfits
+from .branches import contains as _contains, joins
 from ..runtime.context import context_of
 from ..runtime.provenance import records_call, surface_identity
 
@@ -92,16 +93,6 @@ log = logging.getLogger(__name__)
 __all__ = ["AFM_NU", "ALLOWANCE", "BEAM", "CLOSE", "FROM_FE", "FROM_FIT", "NOT_FITTED", "RIVAL", "STRONG", "Diagnosis", "Scores",
            "Step", "check_known", "determine", "diagnose", "explained", "scale_conventions",
            "settled"]
-
-
-def _contains(big, small) -> bool:
-    """Every effect of ``small`` is in ``big`` (as often)."""
-    rest = list(big)
-    for e in small:
-        if e not in rest:
-            return False
-        rest.remove(e)
-    return True
 
 
 def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
@@ -145,9 +136,15 @@ def _examine(fitter: Fitter, key: tuple, candidates, scores: Scores) -> Step:
     return Step(current, ranking, not_detectable, verdict, rivals)
 
 
-def _climb(fitter: Fitter, key: tuple, candidates, scores: Scores, rungs_left: int, steps: list) -> tuple:
-    """Greedy climb from ``key``: add the named effect while the rung is not :func:`settled`."""
+def _climb(fitter: Fitter, key: tuple, candidates, scores: Scores, rungs_left: int, steps: list,
+           kept=()) -> tuple[tuple, tuple | None]:
+    """Greedy climb from ``key``: add the named effect while the rung is not :func:`settled`, and
+    until it :func:`joins` a rung of ``kept`` (the rungs of the explanations climbed before):
+    ``(the last rung, the rung it joined or None)``."""
     while rungs_left > 0 and not settled(fitter.fit(key), fitter):
+        joined = joins(fitter, key, kept, scores)
+        if joined is not None:
+            return key, joined
         step = _examine(fitter, key, candidates, scores)
         steps.append(step)
         if step.verdict in ("none", "ambiguous"):
@@ -158,7 +155,7 @@ def _climb(fitter: Fitter, key: tuple, candidates, scores: Scores, rungs_left: i
             break
         key = key + (step.verdict,)
         rungs_left -= 1
-    return key
+    return key, None
 
 
 def _fittable(fitter: Fitter, key: tuple, candidates) -> list[str]:
@@ -237,7 +234,9 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         its branch is climbed as well (a beam of :data:`BEAM`) and the two explanations
         are compared (``alternatives``): within :data:`CLOSE` of each other the verdict
         is ``ambiguous``; within :data:`RIVAL`, the other is named with the measurement
-        that would separate them.
+        that would separate them. The runner-up's branch stops where it becomes a rung of
+        the first explanation with its own effect doing nothing on top of it (:func:`joins`:
+        the contact points of curves that start in contact): it is that explanation.
     in_loop : bool
         Fit combinations of elastic effects that no response surface covers (two layers,
         layer and stiffening) with the finite-element model in the loop
@@ -330,13 +329,16 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         if first.verdict != "none" and max_rungs > 0:
             named = [f for f in first.ranking[1:] if first.rung.bic - f.bic > STRONG]
             heads = [first.ranking[0]] + named[:BEAM - 1]
+            kept: list[tuple] = []  # the rungs of the explanations climbed so far
             for head in heads:
                 log.info("climbing from %s (at most %d more rung%s)", head.model, max_rungs - 1,
                          "s" if max_rungs != 2 else "")
                 branch_steps = []
-                key = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps)
-                branches.append((key, branch_steps))
+                key, joined = _climb(fitter, head.effects, candidates, scores, max_rungs - 1, branch_steps, kept)
                 examined += branch_steps
+                if joined is None:  # else it is the explanation climbed before: that one's end stands for both
+                    branches.append((key, branch_steps))
+                    kept += [head.effects] + [s.rung.effects for s in branch_steps] + [key]
         notes = [*scale_notes, *dropped_notes]
         alternatives = []
         if branches:
