@@ -173,3 +173,27 @@ def test_a_batch_row_and_its_table_hold_both_verdicts(diagnosis_surfaces, galler
     header = lines[0].split("\t")
     cells = dict(zip(header, lines[1].split("\t")))
     assert cells["sample"] == "none" and cells["instrument"] == "drag, baselines"
+
+
+def test_an_instrument_effect_fitted_at_its_null_value_is_switched_off():
+    """drag whose viscosity and far-field coefficient both end at 0 gives no force: switched off, not named;
+    drag with either term above 0 on, and the body's drag is off once its drag area is 0 whatever its height.
+    A per-curve effect of several curves is off only when it is off on every curve."""
+    from types import SimpleNamespace
+
+    from skin_indent.diagnosis.instrument import switched_off
+
+    def rung(names, lo, hi, x):
+        model = SimpleNamespace(parameter_names=tuple(names), bounds=(np.array(lo, float), np.array(hi, float)))
+        return SimpleNamespace(bound_model=model, x=np.array(x, float))
+
+    names = ("E_kPa", "eta_mPa_s", "drag_N_s_per_m", "a_eff2_mm2", "h_eff_mm")
+    lo, hi = (1e-3, 0.0, 0.0, 0.0, 1e-4), (10.0, 5.0, 1e-4, 0.25, 0.5)
+    both_off = rung(names, lo, hi, (0.2, 1e-12, 0.0, 0.09, 0.02))
+    assert switched_off(both_off, ("drag", "body_drag")) == ["drag"]
+    one_on = rung(names, lo, hi, (0.2, 1e-12, 3e-6, 0.0, 0.02))
+    assert switched_off(one_on, ("drag", "body_drag")) == ["body_drag"]
+    joint = ("E_kPa", "eta_mPa_s[1]", "drag_N_s_per_m[1]", "eta_mPa_s[2]", "drag_N_s_per_m[2]")
+    lo2, hi2 = (1e-3, 0.0, 0.0, 0.0, 0.0), (10.0, 5.0, 1e-4, 5.0, 1e-4)
+    assert switched_off(rung(joint, lo2, hi2, (0.2, 0.0, 0.0, 0.0, 2e-6)), ("drag",)) == []
+    assert switched_off(rung(joint, lo2, hi2, (0.2, 0.0, 0.0, 0.0, 0.0)), ("drag",)) == ["drag"]

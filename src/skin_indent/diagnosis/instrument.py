@@ -27,7 +27,7 @@ from .segment_misfit import MIN_POINTS
 log = logging.getLogger(__name__)
 
 __all__ = ["AT_LIMIT", "WORSE_BY", "WORSE_FACTOR", "at_physical_range", "examine_instrument", "out_of_contact_rms",
-           "worsened_out_of_contact"]
+           "switched_off", "worsened_out_of_contact"]
 
 
 #: a parameter of the instrument within this fraction of its range from a face ends on it
@@ -78,6 +78,15 @@ def worsened_out_of_contact(fitter, current: Rung, candidate: Rung) -> list[str]
     return out
 
 
+def _parameters_of(rung: Rung, effects):
+    """``(fit name, lower, upper, value)`` of every fit parameter of ``effects`` in ``rung`` (every curve's)."""
+    model = rung.bound_model
+    own = {k for n in effects for k in effect(n).fit_names}
+    for i, k in enumerate(model.parameter_names):
+        if split_name(k)[0] in own:
+            yield k, float(model.bounds[0][i]), float(model.bounds[1][i]), float(rung.x[i])
+
+
 def at_physical_range(rung: Rung, effects) -> list[str]:
     """The fit parameters of the instrument's ``effects`` in ``rung`` that end on the far face of their
     physical range (within :data:`AT_LIMIT` of it; the face at 0, their off value, does not count): an
@@ -91,17 +100,26 @@ def at_physical_range(rung: Rung, effects) -> list[str]:
     effects : iterable of str
         Effects of the instrument in it.
     """
-    model = rung.bound_model
-    own = {k for n in effects for k in effect(n).fit_names}
     out = []
-    for i, k in enumerate(model.parameter_names):
-        if split_name(k)[0] not in own:
-            continue
-        lo, hi = float(model.bounds[0][i]), float(model.bounds[1][i])
-        v, span = float(rung.x[i]), hi - lo
+    for k, lo, hi, v in _parameters_of(rung, effects):
         for face in (lo, hi):
-            if face != 0.0 and math.isfinite(face) and abs(v - face) <= AT_LIMIT * span:
+            if face != 0.0 and math.isfinite(face) and abs(v - face) <= AT_LIMIT * (hi - lo):
                 out.append(k)
+    return out
+
+
+def switched_off(rung: Rung, effects) -> list[str]:
+    """The instrument's ``effects`` (names) that ``rung`` (as in :func:`at_physical_range`) fitted at their null
+    value: every fit parameter of the effect whose range starts at 0, its off value (drag's viscosity and
+    far-field coefficient, the body's drag area), within :data:`AT_LIMIT` of its range from 0, on every curve.
+    Such an effect gives no force: the fit found it absent, and it is not named (the same model without it fits
+    as well)."""
+    out = []
+    for n in effects:
+        at_zero = [abs(v) <= AT_LIMIT * (hi if math.isfinite(hi) else 1.0)
+                   for _, lo, hi, v in _parameters_of(rung, (n,)) if lo == 0.0 and hi > 0.0]
+        if at_zero and all(at_zero):
+            out.append(n)
     return out
 
 
@@ -145,10 +163,14 @@ def examine_instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, l
             hidden["+".join(c)] = f"{NOT_FITTED}: {f}"
             continue
         pinned = at_physical_range(f, c)
+        off = switched_off(f, c)
         worse = worsened_out_of_contact(fitter, current, f)
         if worse:  # bought in contact at the expense of the parts that determine it
             hidden["+".join(c)] = (f"leaves the {', '.join(worse)} out of contact worse than without it: it "
                                    "stands in for the sample in contact, not for the instrument")
+            continue
+        if off:  # fitted at its null value: the same fit as the combination without it, which is tried too
+            hidden["+".join(c)] = f"{', '.join(off)} fitted at its null value (no force): the data do not show it"
             continue
         if pinned:  # at the edge of its physical range: it stands in for something else (tethers, creep)
             hidden["+".join(c)] = (f"{', '.join(pinned)} at the edge of its physical range: the instrument "
