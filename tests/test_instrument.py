@@ -178,14 +178,16 @@ def test_a_batch_row_and_its_table_hold_both_verdicts(diagnosis_surfaces, galler
 def test_an_instrument_effect_fitted_at_its_null_value_is_switched_off():
     """drag whose viscosity and far-field coefficient both end at 0 gives no force: switched off, not named;
     drag with either term above 0 on, and the body's drag is off once its drag area is 0 whatever its height.
-    A per-curve effect of several curves is off only when it is off on every curve."""
+    A per-curve effect of several curves is off only when it is off on every curve. A baseline's drift, whose
+    range holds its off value inside, is off within 2 sd of 0 (-1.05e-8 +- 7.2e-9 mN/s: the Chiaro retract's
+    once relaxation is fitted, 0.012 nN over its 1.16 s against a noise of 0.017 nN), on at 3 sd."""
     from types import SimpleNamespace
 
     from skin_indent.diagnosis.instrument import switched_off
 
-    def rung(names, lo, hi, x):
+    def rung(names, lo, hi, x, parameters=None, std=None):
         model = SimpleNamespace(parameter_names=tuple(names), bounds=(np.array(lo, float), np.array(hi, float)))
-        return SimpleNamespace(bound_model=model, x=np.array(x, float))
+        return SimpleNamespace(bound_model=model, x=np.array(x, float), parameters=parameters or {}, std=std or {})
 
     names = ("E_kPa", "eta_mPa_s", "drag_N_s_per_m", "a_eff2_mm2", "h_eff_mm")
     lo, hi = (1e-3, 0.0, 0.0, 0.0, 1e-4), (10.0, 5.0, 1e-4, 0.25, 0.5)
@@ -197,3 +199,11 @@ def test_an_instrument_effect_fitted_at_its_null_value_is_switched_off():
     lo2, hi2 = (1e-3, 0.0, 0.0, 0.0, 0.0), (10.0, 5.0, 1e-4, 5.0, 1e-4)
     assert switched_off(rung(joint, lo2, hi2, (0.2, 0.0, 0.0, 0.0, 2e-6)), ("drag",)) == []
     assert switched_off(rung(joint, lo2, hi2, (0.2, 0.0, 0.0, 0.0, 0.0)), ("drag",)) == ["drag"]
+    drift = ("E_kPa", "retract_drift_mN_per_s")
+    lo3, hi3 = (1e-3, -1e-6), (10.0, 1e-6)
+    off = rung(drift, lo3, hi3, (0.08, -1.05e-8), {"E_kPa": 0.08, "retract_drift_mN_per_s": -1.05e-8},
+               {"E_kPa": 0.002, "retract_drift_mN_per_s": 7.2e-9})
+    assert switched_off(off, ("baselines",)) == ["baselines"]
+    on = rung(drift, lo3, hi3, (0.08, -2.2e-8), {"E_kPa": 0.08, "retract_drift_mN_per_s": -2.2e-8},
+              {"E_kPa": 0.002, "retract_drift_mN_per_s": 7.2e-9})
+    assert switched_off(on, ("baselines",)) == []

@@ -26,7 +26,7 @@ from .segment_misfit import MIN_POINTS
 
 log = logging.getLogger(__name__)
 
-__all__ = ["AT_LIMIT", "WORSE_BY", "WORSE_FACTOR", "at_physical_range", "examine_instrument", "out_of_contact_rms",
+__all__ = ["AT_LIMIT", "NULL_SD", "WORSE_BY", "WORSE_FACTOR", "at_physical_range", "examine_instrument", "out_of_contact_rms",
            "switched_off", "worsened_out_of_contact"]
 
 
@@ -39,6 +39,8 @@ AT_LIMIT = 1e-3
 WORSE_FACTOR = 2.0
 #: see :data:`WORSE_FACTOR`
 WORSE_BY = 2.0
+#: an instrument's parameter within this many standard deviations of its off value is at it (:func:`switched_off`)
+NULL_SD = 2.0
 #: the points of a segment this fraction of the indentation before the contact point are out of contact
 MARGIN = 0.05
 
@@ -110,15 +112,23 @@ def at_physical_range(rung: Rung, effects) -> list[str]:
 
 def switched_off(rung: Rung, effects) -> list[str]:
     """The instrument's ``effects`` (names) that ``rung`` (as in :func:`at_physical_range`) fitted at their null
-    value: every fit parameter of the effect whose range starts at 0, its off value (drag's viscosity and
-    far-field coefficient, the body's drag area), within :data:`AT_LIMIT` of its range from 0, on every curve.
-    Such an effect gives no force: the fit found it absent, and it is not named (the same model without it fits
-    as well)."""
+    value: every parameter of the effect that has an off value (drag's viscosity and far-field coefficient, the
+    body's drag area, a baseline's drift) is at it, on every curve: on the face of its range that is the off
+    value (within :data:`AT_LIMIT` of the range), or within :data:`NULL_SD` standard deviations of it. Such an
+    effect gives no force the data show: the fit found it absent, and it is not named (the same model without
+    it fits as well)."""
+    params, std = getattr(rung, "parameters", None) or {}, getattr(rung, "std", None) or {}
     out = []
     for n in effects:
-        at_zero = [abs(v) <= AT_LIMIT * (hi if math.isfinite(hi) else 1.0)
+        on_face = [abs(v) <= AT_LIMIT * (hi if math.isfinite(hi) else 1.0)
                    for _, lo, hi, v in _parameters_of(rung, (n,)) if lo == 0.0 and hi > 0.0]
-        if at_zero and all(at_zero):
+        offs = {p.name: p.off for p in effect(n).parameters if p.off is not None}
+        near = []
+        for k, v in params.items():
+            off, sd = offs.get(split_name(k)[0]), std.get(k)
+            if off is not None and isinstance(v, (int, float)):
+                near.append(isinstance(sd, (int, float)) and math.isfinite(sd) and abs(v - off) < NULL_SD * sd)
+        if (on_face and all(on_face)) or (near and all(near)):
             out.append(n)
     return out
 
