@@ -207,3 +207,21 @@ def test_an_instrument_effect_fitted_at_its_null_value_is_switched_off():
     on = rung(drift, lo3, hi3, (0.08, -2.2e-8), {"E_kPa": 0.08, "retract_drift_mN_per_s": -2.2e-8},
               {"E_kPa": 0.002, "retract_drift_mN_per_s": 7.2e-9})
     assert switched_off(on, ("baselines",)) == []
+
+
+def test_a_log_scaled_height_is_at_a_face_within_a_fraction_of_its_decades():
+    """The body's effective height runs over 3.2 decades (0.34 um to 0.5 mm on the spot3 curve): 0.71 um (the
+    sphere-sized body 0.4 um above its lower face that fits spot3's near-wall drag) is inside its range, not
+    at its face (it was, by 1e-3 of the linear span: 0.5 um); 0.3405 um is at it, and so is 0.4995 mm."""
+    from types import SimpleNamespace
+
+    from skin_indent.diagnosis.instrument import at_physical_range
+
+    def rung(h):
+        model = SimpleNamespace(parameter_names=("a_eff2_mm2", "h_eff_mm"),
+                                bounds=(np.array([0.0, 3.4e-4]), np.array([0.25, 0.5])))
+        return SimpleNamespace(bound_model=model, x=np.array([0.0013, h]))
+
+    assert at_physical_range(rung(7.1e-4), ("body_drag",)) == []
+    assert at_physical_range(rung(3.405e-4), ("body_drag",)) == ["h_eff_mm"]
+    assert at_physical_range(rung(0.4995), ("body_drag",)) == ["h_eff_mm"]

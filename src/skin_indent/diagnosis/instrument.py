@@ -81,17 +81,29 @@ def worsened_out_of_contact(fitter, current: Rung, candidate: Rung) -> list[str]
 
 
 def _parameters_of(rung: Rung, effects):
-    """``(fit name, lower, upper, value)`` of every fit parameter of ``effects`` in ``rung`` (every curve's)."""
+    """``(fit name, lower, upper, value, log)`` of every fit parameter of ``effects`` in ``rung`` (every curve's);
+    ``log``: the parameter is sampled on a log scale (:attr:`~skin_indent.effects.EffectParameter.log`)."""
     model = rung.bound_model
     own = {k for n in effects for k in effect(n).fit_names}
+    logs = {p.name for n in effects for p in effect(n).parameters if p.log}
     for i, k in enumerate(model.parameter_names):
         if split_name(k)[0] in own:
-            yield k, float(model.bounds[0][i]), float(model.bounds[1][i]), float(rung.x[i])
+            yield (k, float(model.bounds[0][i]), float(model.bounds[1][i]), float(rung.x[i]),
+                   split_name(k)[0] in logs)
+
+
+def _near_face(v: float, face: float, lo: float, hi: float, log: bool) -> bool:
+    """``v`` within :data:`AT_LIMIT` of the range from ``face``: of its decades for a log-scaled parameter of
+    positive range (an effective height from 0.1 um to 0.5 mm: within 0.9 % of a face, not within 0.5 um)."""
+    if log and lo > 0.0 and math.isfinite(hi) and v > 0.0:
+        return abs(math.log(v / face)) <= AT_LIMIT * math.log(hi / lo)
+    return abs(v - face) <= AT_LIMIT * (hi - lo)
 
 
 def at_physical_range(rung: Rung, effects) -> list[str]:
     """The fit parameters of the instrument's ``effects`` in ``rung`` that end on the far face of their
-    physical range (within :data:`AT_LIMIT` of it; the face at 0, their off value, does not count): an
+    physical range (within :data:`AT_LIMIT` of it, of its decades for a log-scaled one; the face at 0, their
+    off value, does not count): an
     effect of the instrument there stands in for a force the instrument cannot give (tethers pulled on
     the retract, the sample's creep in a hold).
 
@@ -103,9 +115,9 @@ def at_physical_range(rung: Rung, effects) -> list[str]:
         Effects of the instrument in it.
     """
     out = []
-    for k, lo, hi, v in _parameters_of(rung, effects):
+    for k, lo, hi, v, log in _parameters_of(rung, effects):
         for face in (lo, hi):
-            if face != 0.0 and math.isfinite(face) and abs(v - face) <= AT_LIMIT * (hi - lo):
+            if face != 0.0 and math.isfinite(face) and _near_face(v, face, lo, hi, log):
                 out.append(k)
     return out
 
@@ -121,7 +133,7 @@ def switched_off(rung: Rung, effects) -> list[str]:
     out = []
     for n in effects:
         on_face = [abs(v) <= AT_LIMIT * (hi if math.isfinite(hi) else 1.0)
-                   for _, lo, hi, v in _parameters_of(rung, (n,)) if lo == 0.0 and hi > 0.0]
+                   for _, lo, hi, v, _ in _parameters_of(rung, (n,)) if lo == 0.0 and hi > 0.0]
         offs = {p.name: p.off for p in effect(n).parameters if p.off is not None}
         near = []
         for k, v in params.items():
@@ -180,7 +192,8 @@ def examine_instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, l
                                    "stands in for the sample in contact, not for the instrument")
             continue
         if off:  # fitted at its null value: the same fit as the combination without it, which is tried too
-            hidden["+".join(c)] = f"{', '.join(off)} fitted at its null value (no force): the data do not show it"
+            hidden["+".join(c)] = (f"{', '.join(off)} fitted at {'their' if len(off) > 1 else 'its'} null value "
+                                   "(no force): the data do not show it")
             continue
         if pinned:  # at the edge of its physical range: it stands in for something else (tethers, creep)
             hidden["+".join(c)] = (f"{', '.join(pinned)} at the edge of its physical range: the instrument "
