@@ -173,3 +173,55 @@ def test_a_batch_row_and_its_table_hold_both_verdicts(diagnosis_surfaces, galler
     header = lines[0].split("\t")
     cells = dict(zip(header, lines[1].split("\t")))
     assert cells["sample"] == "none" and cells["instrument"] == "drag, baselines"
+
+
+def test_an_instrument_effect_fitted_at_its_null_value_is_switched_off():
+    """drag whose viscosity and far-field coefficient both end at 0 gives no force: switched off, not named;
+    drag with either term above 0 on, and the body's drag is off once its drag area is 0 whatever its height.
+    A per-curve effect of several curves is off only when it is off on every curve. A baseline's drift, whose
+    range holds its off value inside, is off within 2 sd of 0 (-1.05e-8 +- 7.2e-9 mN/s: the Chiaro retract's
+    once relaxation is fitted, 0.012 nN over its 1.16 s against a noise of 0.017 nN), on at 3 sd."""
+    from types import SimpleNamespace
+
+    from skin_indent.diagnosis.instrument import switched_off
+
+    def rung(names, lo, hi, x, parameters=None, std=None):
+        model = SimpleNamespace(parameter_names=tuple(names), bounds=(np.array(lo, float), np.array(hi, float)))
+        return SimpleNamespace(bound_model=model, x=np.array(x, float), parameters=parameters or {}, std=std or {})
+
+    names = ("E_kPa", "eta_mPa_s", "drag_N_s_per_m", "a_eff2_mm2", "h_eff_mm")
+    lo, hi = (1e-3, 0.0, 0.0, 0.0, 1e-4), (10.0, 5.0, 1e-4, 0.25, 0.5)
+    both_off = rung(names, lo, hi, (0.2, 1e-12, 0.0, 0.09, 0.02))
+    assert switched_off(both_off, ("drag", "body_drag")) == ["drag"]
+    one_on = rung(names, lo, hi, (0.2, 1e-12, 3e-6, 0.0, 0.02))
+    assert switched_off(one_on, ("drag", "body_drag")) == ["body_drag"]
+    joint = ("E_kPa", "eta_mPa_s[1]", "drag_N_s_per_m[1]", "eta_mPa_s[2]", "drag_N_s_per_m[2]")
+    lo2, hi2 = (1e-3, 0.0, 0.0, 0.0, 0.0), (10.0, 5.0, 1e-4, 5.0, 1e-4)
+    assert switched_off(rung(joint, lo2, hi2, (0.2, 0.0, 0.0, 0.0, 2e-6)), ("drag",)) == []
+    assert switched_off(rung(joint, lo2, hi2, (0.2, 0.0, 0.0, 0.0, 0.0)), ("drag",)) == ["drag"]
+    drift = ("E_kPa", "retract_drift_mN_per_s")
+    lo3, hi3 = (1e-3, -1e-6), (10.0, 1e-6)
+    off = rung(drift, lo3, hi3, (0.08, -1.05e-8), {"E_kPa": 0.08, "retract_drift_mN_per_s": -1.05e-8},
+               {"E_kPa": 0.002, "retract_drift_mN_per_s": 7.2e-9})
+    assert switched_off(off, ("baselines",)) == ["baselines"]
+    on = rung(drift, lo3, hi3, (0.08, -2.2e-8), {"E_kPa": 0.08, "retract_drift_mN_per_s": -2.2e-8},
+              {"E_kPa": 0.002, "retract_drift_mN_per_s": 7.2e-9})
+    assert switched_off(on, ("baselines",)) == []
+
+
+def test_a_log_scaled_height_is_at_a_face_within_a_fraction_of_its_decades():
+    """The body's effective height runs over 3.2 decades (0.34 um to 0.5 mm on the spot3 curve): 0.71 um (the
+    sphere-sized body 0.4 um above its lower face that fits spot3's near-wall drag) is inside its range, not
+    at its face (it was, by 1e-3 of the linear span: 0.5 um); 0.3405 um is at it, and so is 0.4995 mm."""
+    from types import SimpleNamespace
+
+    from skin_indent.diagnosis.instrument import at_physical_range
+
+    def rung(h):
+        model = SimpleNamespace(parameter_names=("a_eff2_mm2", "h_eff_mm"),
+                                bounds=(np.array([0.0, 3.4e-4]), np.array([0.25, 0.5])))
+        return SimpleNamespace(bound_model=model, x=np.array([0.0013, h]))
+
+    assert at_physical_range(rung(7.1e-4), ("body_drag",)) == []
+    assert at_physical_range(rung(3.405e-4), ("body_drag",)) == ["h_eff_mm"]
+    assert at_physical_range(rung(0.4995), ("body_drag",)) == ["h_eff_mm"]

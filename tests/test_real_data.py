@@ -205,3 +205,31 @@ def test_diagnose_names_adhesion_on_the_retract_segment(diagnose_cache):
                       cache_dir=diagnose_cache, workers=2)
     assert second.verdict == "adhesion", second.report()
     assert second.ranking[0].parameters["w_mJ_per_m2"] > 0
+
+
+#: the cantilevers' spring constants (N/m) the original files record (README of tests/data/real-data)
+SPRING_CONSTANTS = {"chiaro_AEBP1_R27.5um.csv": 0.019, "jpk_force-save-example_R18.64um.csv": 0.02230,
+                    "jpk_creep_brain_Runknown.csv": 0.061, "jpk_creep_polymergel_Runknown.csv": 0.061,
+                    "jpk_fd_spot3-0192_Runknown.csv": 0.04349, "jpk_fd_map2x2-0_Runknown.csv": 0.01548}
+
+
+@pytest.mark.parametrize("name", sorted(SPRING_CONSTANTS))
+def test_the_spring_constant_is_estimated_from_the_ramps(name):
+    """The CSVs do not carry k: the piezo's constant speed in each ramp gives it (depth = a + b t - F/k per
+    approach and retract), within 3 % of what the original file records, on every curve (the creep curves'
+    constant-force holds left out); a depth recorded at the actuator (no cantilever) gives none."""
+    from skin_indent.measurement import measurement_from_arrays, prepare
+    from skin_indent.measurement.cantilever import estimate_spring_constant
+
+    data = prepare(load_csv(REAL / name), segments=("approach", "hold", "retract"), radius_mm=0.02)
+    k, source = data.spring_constant
+    assert source == "estimated from the ramps"
+    assert k == pytest.approx(SPRING_CONSTANTS[name], rel=0.03)
+    assert np.allclose(data.deflection_mm, data.force_mN / k)
+    t = np.linspace(0.0, 2.0, 400)
+    depth = np.where(t < 1.0, 0.01 * t, 0.02 - 0.01 * t)  # the actuator's own position: no deflection in it
+    force = np.maximum(depth - 0.005, 0.0) ** 1.5 + np.random.default_rng(1).normal(0.0, 1e-6, t.size)
+    kind = np.where(t < 1.0, "approach", "retract")
+    assert estimate_spring_constant(t, depth, force, kind) is None
+    loading = measurement_from_arrays(depth[:200], force[:200], None, source="no time")
+    assert prepare(loading, radius_mm=1.0).spring_constant == (None, "none")

@@ -26,8 +26,8 @@ from .segment_misfit import MIN_POINTS
 
 log = logging.getLogger(__name__)
 
-__all__ = ["AT_LIMIT", "WORSE_BY", "WORSE_FACTOR", "at_physical_range", "examine_instrument", "out_of_contact_rms",
-           "worsened_out_of_contact"]
+__all__ = ["AT_LIMIT", "NULL_SD", "WORSE_BY", "WORSE_FACTOR", "at_physical_range", "examine_instrument", "out_of_contact_rms",
+           "switched_off", "worsened_out_of_contact"]
 
 
 #: a parameter of the instrument within this fraction of its range from a face ends on it
@@ -39,6 +39,8 @@ AT_LIMIT = 1e-3
 WORSE_FACTOR = 2.0
 #: see :data:`WORSE_FACTOR`
 WORSE_BY = 2.0
+#: an instrument's parameter within this many standard deviations of its off value is at it (:func:`switched_off`)
+NULL_SD = 2.0
 #: the points of a segment this fraction of the indentation before the contact point are out of contact
 MARGIN = 0.05
 
@@ -78,9 +80,30 @@ def worsened_out_of_contact(fitter, current: Rung, candidate: Rung) -> list[str]
     return out
 
 
+def _parameters_of(rung: Rung, effects):
+    """``(fit name, lower, upper, value, log)`` of every fit parameter of ``effects`` in ``rung`` (every curve's);
+    ``log``: the parameter is sampled on a log scale (:attr:`~skin_indent.effects.EffectParameter.log`)."""
+    model = rung.bound_model
+    own = {k for n in effects for k in effect(n).fit_names}
+    logs = {p.name for n in effects for p in effect(n).parameters if p.log}
+    for i, k in enumerate(model.parameter_names):
+        if split_name(k)[0] in own:
+            yield (k, float(model.bounds[0][i]), float(model.bounds[1][i]), float(rung.x[i]),
+                   split_name(k)[0] in logs)
+
+
+def _near_face(v: float, face: float, lo: float, hi: float, log: bool) -> bool:
+    """``v`` within :data:`AT_LIMIT` of the range from ``face``: of its decades for a log-scaled parameter of
+    positive range (an effective height from 0.1 um to 0.5 mm: within 0.9 % of a face, not within 0.5 um)."""
+    if log and lo > 0.0 and math.isfinite(hi) and v > 0.0:
+        return abs(math.log(v / face)) <= AT_LIMIT * math.log(hi / lo)
+    return abs(v - face) <= AT_LIMIT * (hi - lo)
+
+
 def at_physical_range(rung: Rung, effects) -> list[str]:
     """The fit parameters of the instrument's ``effects`` in ``rung`` that end on the far face of their
-    physical range (within :data:`AT_LIMIT` of it; the face at 0, their off value, does not count): an
+    physical range (within :data:`AT_LIMIT` of it, of its decades for a log-scaled one; the face at 0, their
+    off value, does not count): an
     effect of the instrument there stands in for a force the instrument cannot give (tethers pulled on
     the retract, the sample's creep in a hold).
 
@@ -91,17 +114,34 @@ def at_physical_range(rung: Rung, effects) -> list[str]:
     effects : iterable of str
         Effects of the instrument in it.
     """
-    model = rung.bound_model
-    own = {k for n in effects for k in effect(n).fit_names}
     out = []
-    for i, k in enumerate(model.parameter_names):
-        if split_name(k)[0] not in own:
-            continue
-        lo, hi = float(model.bounds[0][i]), float(model.bounds[1][i])
-        v, span = float(rung.x[i]), hi - lo
+    for k, lo, hi, v, log in _parameters_of(rung, effects):
         for face in (lo, hi):
-            if face != 0.0 and math.isfinite(face) and abs(v - face) <= AT_LIMIT * span:
+            if face != 0.0 and math.isfinite(face) and _near_face(v, face, lo, hi, log):
                 out.append(k)
+    return out
+
+
+def switched_off(rung: Rung, effects) -> list[str]:
+    """The instrument's ``effects`` (names) that ``rung`` (as in :func:`at_physical_range`) fitted at their null
+    value: every parameter of the effect that has an off value (drag's viscosity and far-field coefficient, the
+    body's drag area, a baseline's drift) is at it, on every curve: on the face of its range that is the off
+    value (within :data:`AT_LIMIT` of the range), or within :data:`NULL_SD` standard deviations of it. Such an
+    effect gives no force the data show: the fit found it absent, and it is not named (the same model without
+    it fits as well)."""
+    params, std = getattr(rung, "parameters", None) or {}, getattr(rung, "std", None) or {}
+    out = []
+    for n in effects:
+        on_face = [abs(v) <= AT_LIMIT * (hi if math.isfinite(hi) else 1.0)
+                   for _, lo, hi, v, _ in _parameters_of(rung, (n,)) if lo == 0.0 and hi > 0.0]
+        offs = {p.name: p.off for p in effect(n).parameters if p.off is not None}
+        near = []
+        for k, v in params.items():
+            off, sd = offs.get(split_name(k)[0]), std.get(k)
+            if off is not None and isinstance(v, (int, float)):
+                near.append(isinstance(sd, (int, float)) and math.isfinite(sd) and abs(v - off) < NULL_SD * sd)
+        if (on_face and all(on_face)) or (near and all(near)):
+            out.append(n)
     return out
 
 
@@ -145,10 +185,15 @@ def examine_instrument(fitter: Fitter, add: tuple, candidates) -> tuple[tuple, l
             hidden["+".join(c)] = f"{NOT_FITTED}: {f}"
             continue
         pinned = at_physical_range(f, c)
+        off = switched_off(f, c)
         worse = worsened_out_of_contact(fitter, current, f)
         if worse:  # bought in contact at the expense of the parts that determine it
             hidden["+".join(c)] = (f"leaves the {', '.join(worse)} out of contact worse than without it: it "
                                    "stands in for the sample in contact, not for the instrument")
+            continue
+        if off:  # fitted at its null value: the same fit as the combination without it, which is tried too
+            hidden["+".join(c)] = (f"{', '.join(off)} fitted at {'their' if len(off) > 1 else 'its'} null value "
+                                   "(no force): the data do not show it")
             continue
         if pinned:  # at the edge of its physical range: it stands in for something else (tethers, creep)
             hidden["+".join(c)] = (f"{', '.join(pinned)} at the edge of its physical range: the instrument "

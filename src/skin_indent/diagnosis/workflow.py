@@ -82,7 +82,7 @@ from .criteria import (ALLOWANCE, BEAM, CLOSE, FROM_FE, FROM_FIT, NOT_FITTED, RI
                        explained,
                        settled, unmoved)
 from .result import Diagnosis, Step
-from .instrument import at_physical_range, examine_instrument
+from .instrument import at_physical_range, examine_instrument, switched_off
 from .segment_misfit import segment_misfits
 from .branches import contains as _contains, joins
 from ..runtime.context import context_of
@@ -356,14 +356,21 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         # effects complete (what they explain may leave an effect of the sample unneeded)
         # an effect of the instrument pushed to the edge of its physical range by the sample's effects
         # stands in for a force the instrument cannot give: dropped, and the climb made again without it
+        # and one fitted at its null value once another joined it (drag at 0 beside the body's drag) gives no
+        # force: not named, and the climb made again without it
         pinned = {split_name(k)[0] for k in at_physical_range(fitter.fit(key), instrument)}
-        drop = tuple(n for n in instrument if set(effect(n).fit_names) & pinned)
+        off = switched_off(fitter.fit(key), instrument)
+        drop = tuple(n for n in instrument if set(effect(n).fit_names) & pinned or n in off)
         if drop:
             excluded |= set(drop)
             instrument = tuple(n for n in instrument if n not in drop)
-            dropped_notes.append(f"{', '.join(drop)} not named for the instrument: in {fitter.fit(key).model} "
-                                 f"{', '.join(sorted(pinned))} end(s) at the edge of the physical range (a force "
-                                 "the instrument cannot give: tethers, the sample's creep)")
+            if any(n not in off for n in drop):
+                dropped_notes.append(f"{', '.join(n for n in drop if n not in off)} not named for the instrument: in "
+                                     f"{fitter.fit(key).model} {', '.join(sorted(pinned))} end(s) at the edge of the "
+                                     "physical range (a force the instrument cannot give: tethers, the sample's creep)")
+            if off:
+                dropped_notes.append(f"{', '.join(off)} not named for the instrument: in {fitter.fit(key).model} it "
+                                     "is fitted at its null value (no force; the other effects hold what it held)")
             continue
         more, more_steps = examine_instrument(fitter, key, tuple(c for c in instrument_candidates
                                                           if c not in key and c not in excluded))

@@ -264,6 +264,10 @@ class Evaluation:
         The line the preparation subtracted from the recorded force
         (:class:`~skin_indent.measurement.contact.Baseline`; the instrument's effects remove from
         themselves what it holds of them).
+    deflection_mm : ndarray or None
+        The probe's cantilever deflection, the recorded baseline-free force over its spring constant (mm):
+        the base (piezo) and the probe's body sit at ``depth_mm + deflection_mm``
+        (:attr:`~skin_indent.measurement.PreparedCurve.deflection_mm`); None where no cantilever shows.
     cache : dict
         Per-model storage for expensive intermediate results (e.g. relaxation weights).
     """
@@ -276,6 +280,7 @@ class Evaluation:
     cache: dict = field(default_factory=dict)
     kind: np.ndarray | None = None
     baseline: object = None
+    deflection_mm: np.ndarray | None = None
 
 
 class Effect:

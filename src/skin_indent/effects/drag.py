@@ -184,13 +184,17 @@ class Drag(Effect):
                                   GAP_FRACTION * ev.radius_mm)
                 + float(fit["drag_N_s_per_m"]) * velocity_mm_s)
 
-    def apply(self, ev: Evaluation, fit: dict) -> None:
-        if ev.time_s is None:
-            raise ValueError(f"{self.name} needs the measurement's time_s")
+    def velocity(self, ev: Evaluation) -> np.ndarray:
+        """The velocity (mm/s) the drag acts against: the tip's, of the recorded depth (cached per model)."""
         v = ev.cache.get("drag_velocity")
         if v is None:
             v = ev.cache["drag_velocity"] = probe_velocity(ev.time_s, ev.depth_mm, ev.kind)
-        drag = self.force(ev, fit, v)
+        return v
+
+    def apply(self, ev: Evaluation, fit: dict) -> None:
+        if ev.time_s is None:
+            raise ValueError(f"{self.name} needs the measurement's time_s")
+        drag = self.force(ev, fit, self.velocity(ev))
         ev.force_mN = ev.force_mN + drag - baseline_part(drag, ev.depth_mm, ev.kind, ev.baseline)
 
     def visible(self, data, noise_mN):

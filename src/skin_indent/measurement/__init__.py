@@ -36,6 +36,8 @@ the modules, in the order data flows through them, are:
 - :mod:`.contact`: :class:`Baseline`, :func:`estimate_baseline`,
   :class:`ContactPoint`, :func:`find_contact_point`,
   :func:`estimate_contact_point`;
+- :mod:`.cantilever`: the probe's spring constant, the file's or estimated from the ramps (where the
+  cantilever's base, and the probe's body with it, sits: depth + force / k);
 - :mod:`.preparation`: :func:`prepare` and :class:`PreparedCurve`, the one way a
   recorded curve is made ready for fits and diagnosis (segments, baseline, contact
   point, window, binning, radius, scale checks);

@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from ._errors import MeasurementError
+from .cantilever import spring_constant
 from .contact import Baseline, ContactPoint, find_contact_point
 from .core import Measurement
 from .scale import Quantity, UnitText
@@ -118,6 +120,21 @@ class PreparedCurve:
     def baseline_mN(self) -> float:
         """The baseline force at the contact guess (mN; 0 when nothing was subtracted)."""
         return 0.0 if self.baseline is None else float(self.baseline.force_at(self.contact_guess_mm))
+
+    @cached_property
+    def spring_constant(self) -> tuple[float | None, str]:
+        """The probe's cantilever: its spring constant (N/m = mN/mm, or None) and where it comes from
+        (:func:`~skin_indent.measurement.cantilever.spring_constant`: the file's, else estimated from the ramps)."""
+        raw = self.force_mN if self.baseline is None else self.force_mN + self.baseline.force_at(self.depth_mm)
+        return spring_constant(self.measurement, self.time_s, self.depth_mm, raw, self.kind)
+
+    @cached_property
+    def deflection_mm(self) -> np.ndarray | None:
+        """The cantilever's deflection from its baseline, force / k (mm, positive as the tip is pushed back), at
+        every point: the base (piezo) sits at ``depth_mm + deflection_mm`` from where it was at the baseline.
+        None where no cantilever shows (:attr:`spring_constant`)."""
+        k = self.spring_constant[0]
+        return None if k is None else np.asarray(self.force_mN, dtype=float) / k
 
     @property
     def max_indentation_mm(self) -> float:

@@ -72,7 +72,8 @@ class ComposedModel:
         """
         theta = np.asarray(theta, dtype=float)
         ev = Evaluation(self.depth_mm, self.time_s, self.depth_mm.copy(), self.radius_mm, cache=self._cache,
-                        kind=getattr(self.data, "kind", None), baseline=getattr(self.data, "baseline", None))
+                        kind=getattr(self.data, "kind", None), baseline=getattr(self.data, "baseline", None),
+                        deflection_mm=getattr(self.data, "deflection_mm", None))
         values = [(e, dict(zip(e.fit_names, theta[s]))) for e, s in self._slices]
         for e, fit in values:
             if e.stage == DEPTH:
