@@ -378,8 +378,9 @@ class Fitter:
             # stopped at 0.065 mN on its way to the truth's 0.041 mN, noise 0.03); in the loop also
             # stopped by its step or cost tolerance, within the noise too: the trust region may have
             # shrunk on the way (measured: two layers on a rigid base stopped in a narrow valley at
-            # chi2 80.4, RMS 0.038 mN against 0.048 allowed, the base's compliance 1.6e-3; with the
-            # base held rigid 63.4 from there); a fresh one from the end goes on while it gains
+            # chi2 80.5, RMS 0.038 mN against 0.048 allowed, the base's compliance 0.0101; restarted
+            # 78.5; then held rigid from there 58.9, resume.at_rigid_base); a fresh one from the end
+            # goes on while it gains
             best = self._resumed(model, best, known, options, early=looped)
         if looped and best is not None and (best.rms_mN > FE_RETRY * noise or stalled(best, model)):
             # the best-ranked start led to a fit that does not reach the noise, or did not move: a
