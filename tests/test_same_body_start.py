@@ -112,3 +112,32 @@ def test_an_effect_outside_the_body_is_fitted_from_the_body_fitted_in_the_loop(m
     else:
         # the fit could not leave that optimum: the screened starts are fitted
         assert screened == ["neo-hooke", "neo-hooke+offset"]
+
+
+def test_a_model_known_from_another_curve_of_the_sample_starts_there(monkeypatch):
+    """A model fitted before to another curve of the sample (the single curve's diagnosis, then the
+    pair's): its fit in the loop starts from that optimum, without screening starts; a known start
+    that does not let the fit move falls back on the screen."""
+    screened = []
+
+    def core(effects, *, radius_mm, **_):
+        return _LoopCore(radius_mm)
+
+    def screen(fitter, model, starts, keep, nested=None):
+        screened.append(model.name)
+        return starts[:keep]
+
+    monkeypatch.setattr(multistart, "elastic_core", core)
+    monkeypatch.setattr(multistart, "screen", screen)
+    alone = Fitter(_curve(0.0), NOISE, noise_known=True, context=None, mesh="coarse").fit(())
+    # another curve's optimum: near this one's, not at it
+    known = {(): {k: v * (1.2 if k == "E_kPa" else 1.0) for k, v in alone.fit_parameters.items()}}
+    assert "E_kPa" in known[()]
+    fitter = Fitter(_curve(0.0), NOISE, noise_known=True, context=None, mesh="coarse", starts=known)
+    rung = fitter.fit(())
+    assert screened == ["neo-hooke"]  # only the first fitter's: the second started from the known optimum
+    assert rung.moved
+    assert rung.parameters["E_kPa"] == pytest.approx(alone.parameters["E_kPa"], rel=1e-3)
+    assert rung.parameters["E_kPa"] == pytest.approx(10.0, rel=0.05)
+    assert not Fitter(_curve(0.0), NOISE, noise_known=True, context=None, mesh="coarse")._known_start(
+        fitter.model(()), (), [np.array([5.0, 0.3])])  # nothing known: no seed

@@ -199,7 +199,7 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
               leave_out=("context", "cache_dir", "workers", "client", "scheduler", "progress"))
 def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=None,
              segments=SEGMENTS, max_rungs: int = 3, in_loop: bool = True, context=None, mesh: str = "coarse",
-             fixed: dict | None = None, priors: dict | None = None, free=(), **build) -> Diagnosis:
+             fixed: dict | None = None, priors: dict | None = None, free=(), starts=None, **build) -> Diagnosis:
     """Compare the model with a measured curve, name the effects it misses and add them.
 
     Parameters
@@ -261,6 +261,11 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     free : sequence of str
         Parameters fitted that the scale's convention holds: ``("nu",)`` fits nu at AFM scale, where
         every model otherwise holds it at :data:`AFM_NU` (:func:`scale_conventions`).
+    starts : Diagnosis, list of Diagnosis or dict, optional
+        Where fits with the finite-element model in the loop start when the same model was fitted
+        before to curves of this sample (a diagnosis of one of the curves: ``{effects: fit
+        parameters}`` of its rungs): from there first, the screened starts only if that fit fails or
+        does not move. Only starts: what the fits end at decides.
 
     Returns
     -------
@@ -298,7 +303,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
     fixed, scale_notes = scale_conventions(curves, fixed, priors, free)
     check_known(fixed, priors, (*candidates, *add), len(curves))
     fitter = Fitter(curves, sigmas, noise_known=noise_mN is not None, context=context, mesh=mesh, in_loop=in_loop,
-                    fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()})
+                    fixed=fixed, priors={k: tuple(v) for k, v in (priors or {}).items()}, starts=known_starts(starts))
     for c, s in zip(curves, sigmas):
         log.info("diagnosing %d points of %s (%s), noise %.3g mN, sphere R = %g mm, mesh %s; finite elements in the "
                  "loop %s", c.n, c.source, ", ".join(k for k in segments if c.has(k)) or "no segment", s, c.radius_mm,
@@ -461,6 +466,18 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
                      curves=list(curves),
                      noises_mN=list(sigmas), noise_sources=list(sources), instrument=instrument,
                      instrument_steps=instrument_steps, segments=segments_left, n_user=len(given))
+
+
+def known_starts(starts) -> dict:
+    """``{effects: fit parameters}`` of the rungs of a :class:`Diagnosis` (or of several), or a dict as given."""
+    if starts is None or isinstance(starts, dict):
+        return dict(starts or {})
+    out = {}
+    for d in starts if isinstance(starts, (list, tuple)) else [starts]:
+        for f in [*d.ladder, *d.alternatives, *(g for s in d.steps for g in s.ranking)]:
+            if f.fit_parameters:
+                out.setdefault(tuple(f.effects), dict(f.fit_parameters))
+    return out
 
 
 #: Poisson's ratio every model of a diagnosis holds at AFM scale: the nearly incompressible end that

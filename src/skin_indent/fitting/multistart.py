@@ -76,7 +76,10 @@ class Fitter:
     """
 
     def __init__(self, data, noise_mN, *, noise_known: bool, context, mesh: str, in_loop: bool = True,
-                 fixed: dict | None = None, priors: dict | None = None):
+                 fixed: dict | None = None, priors: dict | None = None, starts: dict | None = None):
+        #: start values known from fits of the same models to other curves of the sample (a single
+        #: curve's diagnosis): ``{sorted effects: {fit parameter: value}}``; only where to start from
+        self.known_starts = {tuple(sorted(k)): dict(v) for k, v in (starts or {}).items()}
         curves = list(data.curves) if isinstance(data, CurveSet) else (
             list(data) if isinstance(data, (list, tuple)) else [data])
         noises = [float(v) for v in np.broadcast_to(np.asarray(noise_mN, dtype=float), (len(curves),))]
@@ -355,7 +358,25 @@ class Fitter:
             # stops after 3 evaluations at the simpler model's RMS)
             nested = starts[0] if self.warm(key) is not None else None
             options = dict(ftol=FE_TOL, xtol=FE_TOL, gtol=1e-8, max_nfev=FE_MAX_EVALUATIONS)
-            if nested is not None and same_body(self.warm(key), key):
+            seed = self._known_start(model, key, starts)
+            if seed is not None:
+                # the optimum of the same model on other curves of the sample: from there first; the
+                # screened starts only if that fit fails or does not move
+                best, first = self._first_fit(model, [seed], known, options, looped)
+                if best is not None and best.status == 0:
+                    best = self._resumed(model, best, known, options)
+                if best is None or stalled(best, model):
+                    log.info("%s from the known start: %s; screening its starts", model.name,
+                             "failed" if best is None else f"RMS {best.rms_mN:.3g} mN")
+                    kept = best
+                    starts = screen(self, model, starts, FE_PROBES, nested=nested)
+                    best, first = self._first_fit(model, starts, known, options, looped,
+                                                  still=kept if kept is not None and stalled(kept, model) else None)
+                    if kept is not None and not stalled(kept, model) and (best is None or _cost(kept) < _cost(best)):
+                        best, first = kept, len(starts)
+                else:
+                    starts = [seed]
+            elif nested is not None and same_body(self.warm(key), key):
                 # only effects outside the elastic body added to a body fitted in the loop (the contact
                 # points on two layers): from that optimum, no start of the body screened again; the
                 # screened starts only if the fit does not move from there
@@ -472,6 +493,21 @@ class Fitter:
         """:func:`~.resume.at_rigid_base` on this fitter's points."""
         return at_rigid_base(model, self.data.depth_mm, self.data.force_mN, best, noise_mN=self.noise_mN,
                              known=known, options=options)
+
+    def _known_start(self, model, key: tuple, starts: list):
+        """The start of ``key`` from :attr:`known_starts` (the nested start with the known values in
+        place: each curve's own parameters from it), or None."""
+        values = self.known_starts.get(tuple(sorted(key)))
+        if not values or not starts:
+            return None
+        held = self.held(model)
+        x = np.array(starts[0], dtype=float)
+        hit = False
+        for i, n in enumerate(model.parameter_names):
+            if n in values and n not in held:
+                x[i], hit = values[n], True
+        lo, hi = model.bounds
+        return np.clip(x, lo, hi) if hit else None
 
     def _first_fit(self, model, starts: list, known: dict, options: dict, looped: bool, still=None) -> tuple:
         """:func:`~.resume.first_fit` on this fitter's points."""
