@@ -13,7 +13,8 @@ import dataclasses
 import numpy as np
 
 from ..fitting.multistart import Fitter
-from ..fitting.rung import NO_STRUCTURE, Rung, evidence
+from ..fitting.result import FitResult
+from ..fitting.rung import NO_STRUCTURE, evidence
 from ..inverse.residuals import effective_sample_size
 from ..models.composed import at_physical_limit
 
@@ -35,10 +36,10 @@ BEAM = 2
 NOT_FITTED = "not fitted"
 
 
-def unmoved(rung: Rung) -> str | None:
+def unmoved(rung: FitResult) -> str | None:
     """Why a fitted candidate decides nothing, or None when it may be compared with its rivals.
 
-    A fit that ended at its start values (:attr:`Rung.moved`; the fitter has tried its other starts
+    A fit that ended at its start values (:attr:`~skin_indent.fitting.FitResult.moved`; the fitter has tried its other starts
     already, :meth:`~skin_indent.fitting.multistart.Fitter.fit`) did not test the effect it adds: its
     RMS and BIC are those of the start, often the simpler model's optimum with the effect doing
     nothing. It is reported as not fitted (``"not fitted: ..."``), never ranked, so it can neither be
@@ -60,7 +61,7 @@ FROM_FIT = "fit"
 FROM_FE = "finite-element derivatives"
 
 
-def explained(rung: Rung, fitter: Fitter) -> bool:
+def explained(rung: FitResult, fitter: Fitter) -> bool:
     """A rung explains the curve to the noise: a residual without structure (runs test and
     Ljung-Box at the noise level) and an RMS within :data:`ALLOWANCE` of the noise (noise and
     model error in quadrature). The chi-square part of the whiteness test is this allowance:
@@ -81,7 +82,7 @@ def explained(rung: Rung, fitter: Fitter) -> bool:
     return bool(structureless and within)
 
 
-def settled(rung: Rung, fitter: Fitter) -> bool:
+def settled(rung: FitResult, fitter: Fitter) -> bool:
     """The climb stops at this rung: it explains the curve to the noise (:func:`explained`) and
     no fitted parameter stops at the edge of its range short of a physical limit (e.g. a layer
     as thin as the model solves: a model that explains the curve only from there may stand in
@@ -95,7 +96,7 @@ def settled(rung: Rung, fitter: Fitter) -> bool:
 class Scores:
     """The BIC of every model of one diagnosis, at one effective sample size.
 
-    ``scores(rung)`` is the rung with its BIC (:attr:`Rung.BIC_FORMULA` at ``n_eff``), made once
+    ``scores(rung)`` is the rung with its BIC (:attr:`~skin_indent.fitting.FitResult.BIC_FORMULA` at ``n_eff``), made once
     per model (set of effects): wherever a diagnosis holds a model, it holds that one rung.
 
     Parameters
@@ -109,12 +110,12 @@ class Scores:
     def __init__(self, n: int, n_eff: float):
         self.n, self.n_eff = n, float(n_eff)
         #: ``{effects: rung with its BIC}``
-        self.rungs: dict[tuple, Rung] = {}
+        self.rungs: dict[tuple, FitResult] = {}
 
-    def bic(self, f: Rung) -> float:
+    def bic(self, f: FitResult) -> float:
         return evidence(f.chi2_weighted, f.n_parameters, self.n, self.n_eff)[1]
 
-    def __call__(self, f: Rung) -> Rung:
+    def __call__(self, f: FitResult) -> FitResult:
         got = self.rungs.get(f.effects)
         if got is None:
             aic, bic = evidence(f.chi2_weighted, f.n_parameters, self.n, self.n_eff)

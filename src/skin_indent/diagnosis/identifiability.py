@@ -263,18 +263,18 @@ def explanations(current, missing: bool, rivals, first) -> list:
 
     Parameters
     ----------
-    current : Rung
+    current : FitResult
         The last rung.
     missing : bool
         The climb added effects to the given model.
-    rivals : sequence of Rung
+    rivals : sequence of FitResult
         The other explanations within :data:`~.criteria.RIVAL` of its BIC, best first.
     first : Step or None
         The first examination.
 
     Returns
     -------
-    list of Rung
+    list of FitResult
         ``[current, *rivals]`` when the climb added effects; else the first examination's best
         candidate and its rivals when it named any; else ``[current]`` (nothing competes).
     """
@@ -297,9 +297,9 @@ def weigh(rungs, current, curves, noises, *, with_std: bool, priors=None, mesh: 
 
     Parameters
     ----------
-    rungs : sequence of Rung
+    rungs : sequence of FitResult
         The explanations, the choice first (one: only standard deviations are predicted).
-    current : Rung
+    current : FitResult
         The model whose standard deviations are predicted (the diagnosis' last rung).
     curves, noises : sequence
         The recorded curves (PreparedCurve) and their noise (mN), in input order.
@@ -446,7 +446,7 @@ def determine(rung, fixed, outlook: Outlook | None) -> tuple[dict, dict, dict, d
 
     Parameters
     ----------
-    rung : Rung
+    rung : FitResult
         The diagnosis' last rung (the fit's ``std``, ``at_bounds``).
     fixed : dict
         The values held (known, not determined).

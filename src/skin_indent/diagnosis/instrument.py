@@ -18,7 +18,7 @@ import numpy as np
 
 from ..effects import effect
 from ..fitting.multistart import Fitter
-from ..fitting.rung import Rung
+from ..fitting.result import FitResult
 from ..models.joint import split_name
 from .criteria import NOT_FITTED, STRONG, Scores, effective_size
 from .result import Step
@@ -65,7 +65,7 @@ def out_of_contact_rms(fitter, rung) -> dict:
     return out
 
 
-def worsened_out_of_contact(fitter, current: Rung, candidate: Rung) -> list[str]:
+def worsened_out_of_contact(fitter, current: FitResult, candidate: FitResult) -> list[str]:
     """The out-of-contact parts that ``candidate`` (the current model with effects of the instrument)
     leaves worse than ``current``: RMS above :data:`WORSE_FACTOR` times what it was plus :data:`WORSE_BY`
     noise sd. The instrument's
@@ -80,7 +80,7 @@ def worsened_out_of_contact(fitter, current: Rung, candidate: Rung) -> list[str]
     return out
 
 
-def _parameters_of(rung: Rung, effects):
+def _parameters_of(rung: FitResult, effects):
     """``(fit name, lower, upper, value, log)`` of every fit parameter of ``effects`` in ``rung`` (every curve's);
     ``log``: the parameter is sampled on a log scale (:attr:`~skin_indent.effects.EffectParameter.log`)."""
     model = rung.bound_model
@@ -100,7 +100,7 @@ def _near_face(v: float, face: float, lo: float, hi: float, log: bool) -> bool:
     return abs(v - face) <= AT_LIMIT * (hi - lo)
 
 
-def at_physical_range(rung: Rung, effects) -> list[str]:
+def at_physical_range(rung: FitResult, effects) -> list[str]:
     """The fit parameters of the instrument's ``effects`` in ``rung`` that end on the far face of their
     physical range (within :data:`AT_LIMIT` of it, of its decades for a log-scaled one; the face at 0, their
     off value, does not count): an
@@ -109,7 +109,7 @@ def at_physical_range(rung: Rung, effects) -> list[str]:
 
     Parameters
     ----------
-    rung : Rung
+    rung : FitResult
         A fitted model (its ``bound_model`` and ``x``).
     effects : iterable of str
         Effects of the instrument in it.
@@ -122,7 +122,7 @@ def at_physical_range(rung: Rung, effects) -> list[str]:
     return out
 
 
-def switched_off(rung: Rung, effects) -> list[str]:
+def switched_off(rung: FitResult, effects) -> list[str]:
     """The instrument's ``effects`` (names) that ``rung`` (as in :func:`at_physical_range`) fitted at their null
     value: every parameter of the effect that has an off value (drag's viscosity and far-field coefficient, the
     body's drag area, a baseline's drift) is at it, on every curve: on the face of its range that is the off

@@ -529,7 +529,7 @@ def joint_std(rung, blocks, free, prior_terms=(), prior_rows=None) -> dict:
 
     Parameters
     ----------
-    rung : Rung
+    rung : FitResult
         The fitted model (``bound_model``, ``x``).
     blocks : sequence of Block
         The curves fitted together.

@@ -90,7 +90,7 @@ class Plan:
     ----------
     diagnosis : Diagnosis
         What was planned for.
-    explanations : list of Rung
+    explanations : list of FitResult
         The explanations it could not separate, its choice first (one: nothing competes).
     undetermined : dict
         ``{parameter: value}`` of its last rung that it could not determine.

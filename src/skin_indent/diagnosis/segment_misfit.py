@@ -93,7 +93,7 @@ def segment_misfits(fitter, rung) -> list[SegmentMisfit]:
     ----------
     fitter : Fitter
         The curves, their noise, the error model (:meth:`~skin_indent.fitting.multistart.Fitter.sigma`).
-    rung : Rung
+    rung : FitResult
         A fitted model of them.
     """
     r_all = np.asarray(rung.residual_mN, dtype=float)

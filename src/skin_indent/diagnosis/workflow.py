@@ -211,7 +211,7 @@ def diagnose(measurement, *, radius_mm=None, candidates=None, add=(), noise_mN=N
         shared, each curve keeps its own sphere radius, contact point, baseline and noise,
         and every residual is weighed by its own curve's noise; the ladder, the BIC and the
         verdict are computed on all curves together (each rung also reports every curve's
-        RMS: :attr:`Rung.curve_rms_mN`).
+        RMS: :attr:`~skin_indent.fitting.FitResult.curve_rms_mN`).
     radius_mm : float or list of float, optional
         Sphere radius, mm; default the measurement's (else the skin default 6.22 mm). For
         several curves, one per curve (or one for all).

@@ -27,7 +27,7 @@ RATIOS_MEANING = RATIO_MEANING + "; ratio2 the same for the second layer"
 
 def _sd(rung, chain: tuple) -> float:
     """Standard deviation of E times the ratios ``chain`` by the delta method, from the covariance of the
-    reported parameters (:attr:`~skin_indent.fitting.rung.Rung.reported_cov`); NaN where unknown."""
+    reported parameters (:attr:`~skin_indent.fitting.FitResult.reported_cov`); NaN where unknown."""
     names, V = getattr(rung, "reported_cov", None) or ((), np.zeros((0, 0)))
     p = rung.parameters
     value = p["E_kPa"] * math.prod(p[n] for n in chain)
@@ -46,7 +46,7 @@ def bodies(rung) -> dict:
 
     Parameters
     ----------
-    rung : Rung
+    rung : FitResult
         A fitted model (its ``parameters``, ``std``, ``effects``, ``model`` and ``reported_cov``).
 
     Returns

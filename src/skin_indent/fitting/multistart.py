@@ -1,4 +1,4 @@
-"""The multistart fitter of any model (the half-space with any effects): each set of effects fitted once, as a :class:`Rung`."""
+"""The multistart fitter of any model (the half-space with any effects): each set of effects fitted once, as a :class:`~skin_indent.fitting.FitResult`."""
 
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from ..models import ComposedModel, JointModel
 from .identification import hertz_modulus
 from .error_model import MODEL_ERROR, described, point_sigma
 from .result import scored
-from .rung import NO_STRUCTURE, Rung, evidence, reported_covariance, structure_sentence
+from .result import FitResult
+from .rung import NO_STRUCTURE, evidence, reported_covariance, structure_sentence
 from .knowledge import held_coordinates, prior_rows, prior_summary
 from .scale_checks import check_points
 from .ended import how_it_ended, reported_message, stalled
@@ -31,7 +32,7 @@ from .surfaces import elastic_core
 log = logging.getLogger(__name__)
 
 __all__ = ["FE_MAX_EVALUATIONS", "FE_PROBE", "FE_PROBES", "FE_RETRY", "FE_TOL", "MAX_STARTS", "MODEL_ERROR",
-           "NO_STRUCTURE", "Fitter", "Rung", "evidence", "forward_runs", "in_loop", "structure_sentence"]
+           "NO_STRUCTURE", "Fitter", "FitResult", "evidence", "forward_runs", "in_loop", "structure_sentence"]
 
 #: function evaluations (finite-element runs, besides the Jacobians') of one such start
 FE_MAX_EVALUATIONS = 20
@@ -116,7 +117,7 @@ class Fitter:
         self.max_depth = data.max_indentation_mm
         self.e_star = self.e_stars[0]
         self._cores = {}
-        self.fits: dict[tuple, Rung] = {}
+        self.fits: dict[tuple, FitResult] = {}
         #: the contact point is a parameter of every model of a curve recorded from before contact
         self.implicits = [(CONTACT_POINT.name,) if c.contact_mode == "fit" else () for c in curves]
         self.implicit = self.implicits[0]
@@ -271,7 +272,7 @@ class Fitter:
         return float(sum(((g(x) - mean) / sd) ** 2 for g, mean, sd in self.prior_terms(model)))
 
     def fit_all(self, keys) -> dict:
-        """Fit several sets of effects: ``{key: Rung or ValueError}`` (the error of a set that
+        """Fit several sets of effects: ``{key: FitResult or ValueError}`` (the error of a set that
         cannot be fitted), in the order of ``keys``.
 
         Sets fitted with the finite-element model in the loop (two layers, layer and
@@ -330,7 +331,7 @@ class Fitter:
                 done.update(attempt(group))
         return {key: done[key] for key in keys}
 
-    def fit(self, effects: tuple) -> Rung:
+    def fit(self, effects: tuple) -> FitResult:
         key = tuple(effects)
         if key in self.fits:
             return self.fits[key]
@@ -478,7 +479,7 @@ class Fitter:
         base.update(parameters=params, std=std, chi2=chi2, message=reported_message(best, model, x),
                     **scored(chi2, r * (self.noise_mN / s), best.n_free))
         ended = tuple(how_it_ended(best, model, x))
-        rung = Rung(**base, model=model_name(key), effects=key,
+        rung = FitResult(**base, model=model_name(key), effects=key,
                     fit_parameters=dict(best.parameters), prediction_mN=pred,
                     chi2_weighted=chi2, white=bool(analysis is not None and analysis.white), analysis=analysis,
                     structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
