@@ -48,6 +48,7 @@ def test_a_fit_near_a_rigid_base_ends_on_it_unless_the_data_leave_it(truth, rigi
     assert cost(out) <= cost(stopped)
     if rigid:
         assert out.parameters["compliance"] == 0.0 and "compliance" in out.info["active_bounds"]
+        assert out.free_names == stopped.free_names and out.fixed_names == ()  # counted free, on its face
         free = fit_least_squares(model, H, force, [10.0, 0.015], noise_mN=NOISE)
         assert cost(out) - cost(free) <= FACE_CHI2  # leaving it was not worth it
     else:

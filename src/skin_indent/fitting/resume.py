@@ -10,6 +10,7 @@ it a fresh trust region and the same budget, until it converges or stops gaining
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -147,8 +148,8 @@ def at_rigid_base(model, depth_mm, force_mN, result, *, noise_mN, known: dict, o
     """``result``, or the fit from its end with every layer's compliance that ended above a rigid base
     by less than twice :data:`~skin_indent.models.fe_core.STIFF_BASE` (a base over 50 times stiffer
     than the layer) held at 0, if that ends lower: the fit then goes on free from there, and the rigid
-    base stands (reported as held at that face, ``info["active_bounds"]``) unless leaving it lowers
-    the cost by more than :data:`FACE_CHI2`.
+    base stands unless leaving it lowers the cost by more than :data:`FACE_CHI2` (counted free, ended
+    on that face: :func:`_free_at_face`).
 
     Leaving a rigid base there takes the other parameters along a curved valley, where the optimizer
     stops by its step tolerance (measured: two layers on a rigid base from the screened start, chi2
@@ -173,6 +174,22 @@ def at_rigid_base(model, depth_mm, force_mN, result, *, noise_mN, known: dict, o
     except ValueError:  # a run failed on the way: the fit as it ended
         return result
     if cost(at) - cost(free) <= FACE_CHI2 and cost(at) < cost(result):
-        active = list(dict.fromkeys([*at.info.get("active_bounds", ()), *near]))
-        return dataclasses.replace(at, info={**at.info, "active_bounds": active})
+        return _free_at_face(at, result.free_names, near)
     return free if cost(free) < cost(result) else result
+
+
+def _free_at_face(at, free_names: tuple, near: list):
+    """The fit ``at`` (``near`` held at 0) as a fit of ``free_names`` that ended with ``near`` on the
+    face of their range (``info["active_bounds"]``, no covariance in them): counted free, as a fit that
+    reached the face by itself (the same number of parameters in its score)."""
+    idx = [at.free_names.index(n) if n in at.free_names else -1 for n in free_names]
+    cov = np.full((len(free_names), len(free_names)), np.nan)
+    cor = np.full_like(cov, np.nan)
+    for a, i in enumerate(idx):
+        for b, j in enumerate(idx):
+            if i >= 0 and j >= 0:
+                cov[a, b], cor[a, b] = at.covariance[i, j], at.correlation[i, j]
+    active = list(dict.fromkeys([*at.info.get("active_bounds", ()), *near]))
+    return dataclasses.replace(at, free_names=tuple(free_names), fixed_names=tuple(
+        n for n in at.fixed_names if n not in near), covariance=cov, correlation=cor,
+        std={**at.std, **{n: math.nan for n in near}}, info={**at.info, "active_bounds": active})
