@@ -347,3 +347,32 @@ def test_a_fit_at_a_physical_limit_says_it_is_a_limit_not_a_value(analytic):
                                parameters=dict(zip(layer.parameter_names, rigid)))
     notes = limit_notes(at_rigid, layer, rigid)
     assert len(notes) == 1 and notes[0].startswith("ratio") and "rigid base" in notes[0]
+
+
+def test_the_final_model_says_a_rigid_base_reached_by_the_fit_is_a_bound(analytic):
+    """The final model that diagnose, the demo and the report print (fitting.bodies) carries the same
+    sentence as fit's notes where a parameter ended at a physical limit: a rigid base reached by the fit
+    is a bound, not a measured modulus."""
+    from types import SimpleNamespace
+
+    from skin_indent.fitting.bodies import bodies, body_lines
+    from skin_indent.fitting.model_fit import prepare_curve
+    from skin_indent.measurement.scale import display_units
+    from skin_indent.models import ComposedModel
+
+    layer = ComposedModel(_LayerCore(6.22), ("layer",), prepare_curve(_curve()))
+    rigid = np.array([10.0, 0.45, 1.2, 0.0])  # compliance 0: a rigid base
+
+    def rung(at):
+        reported = dict(layer.model_parameters(rigid))
+        return SimpleNamespace(info={"active_bounds": at}, free_names=layer.parameter_names, effects=("layer",),
+                               model="neo-hooke+layer", parameters=reported, std={"E_kPa": 1.0, "nu": 0.02,
+                                                                                  "thickness_mm": 0.1},
+                               reported_cov=((), np.zeros((0, 0))), bound_model=layer, x=rigid)
+
+    b = bodies(rung(("compliance",)))
+    assert b["bodies"][-1]["body"] == "below: rigid base"
+    assert len(b["limits"]) == 1 and "rigid base" in b["limits"][0] and "bound" in b["limits"][0]
+    lines = body_lines(rung(("compliance",)), display_units(6.22))
+    assert any(line.startswith("  note: ratio") and "not a measured value" in line for line in lines)
+    assert "limits" not in bodies(rung(()))  # held there by the user, not reached by the fit: no note

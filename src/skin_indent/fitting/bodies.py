@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from ..effects import numbered
+from .ended import limit_notes
 
 __all__ = ["RATIOS_MEANING", "RATIO_MEANING", "bodies", "body_lines"]
 
@@ -55,7 +56,10 @@ def bodies(rung) -> dict:
         ``model``; ``bodies``: a list of ``{"body", "E_kPa", "E_sd_kPa", "thickness_mm", "thickness_sd_mm"}``
         (``thickness_mm`` None for the material below; ``E_kPa`` ``inf`` for a rigid base; an sd None
         where the value is held, NaN where the fit does not give one); ``nu`` and ``nu_sd``; ``other``: every other
-        parameter ``{name: [value, sd]}``; ``ratio``: :data:`RATIO_MEANING` where the model has layers.
+        parameter ``{name: [value, sd]}``; ``ratio``: :data:`RATIO_MEANING` where the model has layers;
+        ``limits``: where a parameter ended at a physical limit (a rigid base, nu at the nearly
+        incompressible end), that it is a bound the data reach, not a measured value
+        (:func:`~skin_indent.fitting.ended.limit_notes`).
     """
     p, std = rung.parameters, rung.std
     layers = sum(1 for e in rung.effects if e == "layer")
@@ -89,8 +93,10 @@ def bodies(rung) -> dict:
         out.append({"body": "below: half-space" if names else "half-space", "E_kPa": value, "E_sd_kPa": sd,
                     "thickness_mm": None, "thickness_sd_mm": None})
     other = {k: [v, std.get(k)] for k, v in p.items() if k not in used}
+    limits = [str(n) for n in limit_notes(rung, getattr(rung, "bound_model", None), getattr(rung, "x", None))]
     return {"model": rung.model, "bodies": out, "nu": p.get("nu"), "nu_sd": std.get("nu"), "other": other,
-            **({"ratio": RATIO_MEANING if layers == 1 else RATIOS_MEANING} if layers else {})}
+            **({"ratio": RATIO_MEANING if layers == 1 else RATIOS_MEANING} if layers else {}),
+            **({"limits": limits} if limits else {})}
 
 
 def _pm(value, sd, scale: float, unit: str = "") -> str:
@@ -119,6 +125,7 @@ def body_lines(rung, units) -> list[str]:
     lines.append(f"  nu = {_pm(b['nu'], b['nu_sd'], 1.0)} (all materials)")
     for name, (v, sd) in b["other"].items():
         lines.append(f"  {units.name(name)} = {_pm(v, sd, units.factor(name))}")
+    lines.extend(f"  note: {n}" for n in b.get("limits", ()))
     if "ratio" in b:
         lines.append(f"  ({b['ratio']})")
     return lines
