@@ -104,15 +104,6 @@ def test_prior_summary_says_who_determined_a_parameter_and_flags_tension():
     s = prior_summary(post, post_sd, 1.0, 0.1)
     assert s["tension_sd"] == pytest.approx(0.5 / math.hypot(0.05, 0.1), rel=1e-9)
     assert s["in_tension"]
-    # the prior determined it (posterior sd 0.99 of the prior's): the shift 0.67 prior sd is judged
-    # against the spread of narrowed = 0.9 at least, not against sqrt(0.1^2 - 0.099^2) = 0.014
-    barely = prior_summary(1.067, 0.099, 1.0, 0.1)
-    assert barely["determined_by"] == "prior" and not barely["in_tension"]
-    assert barely["tension_sd"] == pytest.approx(0.067 / math.sqrt(0.1**2 - 0.09**2), rel=1e-9)
-    # continuous at narrowed = 0.9, and a prior the data push 3 prior sd away is still in tension
-    assert prior_summary(1.067, 0.09 * (1 + 1e-12), 1.0, 0.1)["tension_sd"] == pytest.approx(
-        prior_summary(1.067, 0.09, 1.0, 0.1)["tension_sd"], rel=1e-9)
-    assert prior_summary(1.3, 0.095, 1.0, 0.1)["in_tension"]
 
 
 def test_a_layer_with_its_thickness_held_is_recovered_from_an_independent_code(hidden, cache, context):

@@ -28,16 +28,7 @@ def prior_summary(posterior: float, posterior_sd: float, mean: float, sd: float)
     ``"data"`` (below :data:`DATA_DETERMINED`), ``"prior"`` (above :data:`PRIOR_DETERMINED`)
     or ``"both"``; ``tension`` = how many combined sd separate the prior from what the data
     alone say (the linear-Gaussian data-alone estimate, ``1/s_d^2 = 1/s_post^2 - 1/s_prior^2``),
-    flagged above :data:`TENSION`. It equals the posterior's shift from the prior mean over
-    ``sqrt(s_prior^2 - s_post^2)``, the sd of that shift when the prior is right. Where the prior
-    determined the parameter (``narrowed`` above :data:`PRIOR_DETERMINED`) that difference is a
-    small difference of two nearly equal numbers, and the posterior sd of a nonlinear fit (a
-    linearisation at its end, with the forward model's error) is not known to the per cent that
-    would make it meaningful: the data's information is then taken as at least that of
-    :data:`PRIOR_DETERMINED` (measured: the forearm-like curve's two layers with the truth's
-    1.0 +- 0.1 mm prior on the top thickness ended at 1.067 +- 0.099, 0.67 prior sd from it; the
-    linear-Gaussian statistic put the data alone at 4.7 +- 0.7 mm, 5 sd, an extrapolation of the
-    linearisation far beyond where it holds; with the floor, 1.5 sd).
+    flagged above :data:`TENSION`.
     """
     ratio = posterior_sd / sd if math.isfinite(posterior_sd) else math.nan
     if not math.isfinite(ratio):
@@ -49,10 +40,7 @@ def prior_summary(posterior: float, posterior_sd: float, mean: float, sd: float)
         info_data = 1 / posterior_sd**2 - 1 / sd**2
         sd_data = 1 / math.sqrt(info_data)
         alone = (posterior / posterior_sd**2 - mean / sd**2) / info_data
-        spread = math.hypot(sd_data, sd)
-        if ratio > PRIOR_DETERMINED:  # (alone - mean) / spread = shift / sqrt(s^2 - s_post^2): floored
-            spread *= math.sqrt((1 - PRIOR_DETERMINED**2) / (1 - ratio**2))
-        tension = abs(alone - mean) / spread
+        tension = abs(alone - mean) / math.hypot(sd_data, sd)
     return {"prior_mean": mean, "prior_sd": sd, "posterior": posterior, "posterior_sd": posterior_sd,
             "narrowed": ratio, "determined_by": by, "tension_sd": tension,
             "in_tension": bool(math.isfinite(tension) and tension > TENSION)}
