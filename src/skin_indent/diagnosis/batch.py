@@ -27,6 +27,7 @@ import os
 from dataclasses import dataclass, field, fields
 
 from ..effects import EFFECTS, WEIGHED, effect, instances
+from ..fitting.bodies import limits
 from ..fitting.model_fit import prepare_curve
 from ..measurement import SEGMENTS
 from ..measurement.scale import PACKAGE_UNITS
@@ -192,13 +193,14 @@ def portable(diagnosis):
 
     Every rung keeps its numbers, predictions and residual analysis; the fitted force models
     (``bound_model``: surfaces, finite-element cores) are left out (about 25
-    kB instead of MBs). Its text, sentence, JSON and HTML report are those of the whole one.
+    kB instead of MBs); where a parameter ended at a physical limit, the sentence that needs the model
+    is kept in ``info["limits"]`` (:func:`~skin_indent.fitting.bodies.limits`). Its text, sentence, JSON and HTML report are those of the whole one.
     """
     light: dict = {}
 
     def rung(r):
-        if id(r) not in light:
-            light[id(r)] = dataclasses.replace(r, bound_model=None)
+        if id(r) not in light:  # what needs the model is said before it goes (fitting.bodies reads it)
+            light[id(r)] = dataclasses.replace(r, bound_model=None, info={**(r.info or {}), "limits": limits(r)})
         return light[id(r)]
 
     return dataclasses.replace(

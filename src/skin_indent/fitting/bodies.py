@@ -17,7 +17,7 @@ import numpy as np
 from ..effects import numbered
 from .ended import limit_notes
 
-__all__ = ["RATIOS_MEANING", "RATIO_MEANING", "bodies", "body_lines"]
+__all__ = ["RATIOS_MEANING", "RATIO_MEANING", "bodies", "body_lines", "limits"]
 
 #: what ``ratio`` is, in one line
 RATIO_MEANING = ("ratio = E of the material below a layer / E of the layer (ratio < 1: softer below, > 1: stiffer "
@@ -93,10 +93,19 @@ def bodies(rung) -> dict:
         out.append({"body": "below: half-space" if names else "half-space", "E_kPa": value, "E_sd_kPa": sd,
                     "thickness_mm": None, "thickness_sd_mm": None})
     other = {k: [v, std.get(k)] for k, v in p.items() if k not in used}
-    limits = [str(n) for n in limit_notes(rung, getattr(rung, "bound_model", None), getattr(rung, "x", None))]
+    limits_ = limits(rung)
     return {"model": rung.model, "bodies": out, "nu": p.get("nu"), "nu_sd": std.get("nu"), "other": other,
             **({"ratio": RATIO_MEANING if layers == 1 else RATIOS_MEANING} if layers else {}),
-            **({"limits": limits} if limits else {})}
+            **({"limits": limits_} if limits_ else {})}
+
+
+def limits(rung) -> list[str]:
+    """Where ``rung`` ended at a physical limit, that it is a bound the data reach (:func:`~.ended.limit_notes`);
+    a rung without its model (sent back from a worker) keeps them in ``info["limits"]``."""
+    model = getattr(rung, "bound_model", None)
+    if model is None:
+        return list((getattr(rung, "info", None) or {}).get("limits", ()))
+    return [str(n) for n in limit_notes(rung, model, getattr(rung, "x", None))]
 
 
 def _pm(value, sd, scale: float, unit: str = "") -> str:
