@@ -154,7 +154,7 @@ def run_demo(out_dir: str | Path = "skin_indent_demo", *, cache_dir=None, worker
             echo(bundled_rank(diag, float(second.radius_mm)))
             echo(f"adding the same skin indented with a sphere of R = {second.radius_mm:g} mm ({second.source}, "
                  f"{second.n_points} points), and diagnosing both curves together:")
-            joint = diagnose([measurement, second], context=context, starts=diag)  # its fits: where the joint ones start
+            joint = diagnose([measurement, second], context=context)
             for f in joint.ladder:
                 rms = ", ".join(f"{v:.4f}" for v in f.curve_rms_mN)
                 echo(f"  {f.model:<32} RMS ({rms}) mN  {'white' if f.white else 'structured'}")
