@@ -10,6 +10,7 @@ the finite-element core's in-loop methods (no finite-element run).
 from __future__ import annotations
 
 import contextlib
+import threading
 from types import SimpleNamespace
 
 import numpy as np
@@ -70,6 +71,7 @@ def test_warm_prefers_the_rung_of_the_same_body_among_rungs_of_equal_size():
     class Stub(Fitter):
         def __init__(self, fits):
             self.fits = fits
+            self._seen = threading.local()
 
     rung = {k: SimpleNamespace(effects=k) for k in [("layer",), ("layer", "offset"), ("layer", "layer"),
                                                      ("offset", "layer")]}
@@ -141,3 +143,19 @@ def test_a_model_known_from_another_curve_of_the_sample_starts_there(monkeypatch
     assert rung.parameters["E_kPa"] == pytest.approx(10.0, rel=0.05)
     assert not Fitter(_curve(0.0), NOISE, noise_known=True, context=None, mesh="coarse")._known_start(
         fitter.model(()), (), [np.array([5.0, 0.3])])  # nothing known: no seed
+
+
+def test_a_fit_in_a_thread_of_fit_all_starts_only_from_fits_it_was_shown():
+    """fit_all's threads: a fit starts from the fits made before the call and its own group's, never
+    from another thread's that happens to have finished first (the same start from run to run)."""
+    class Stub(Fitter):
+        def __init__(self, fits):
+            self.fits = fits
+            self._seen = threading.local()
+
+    rung = {k: SimpleNamespace(effects=k) for k in [("layer",), ("layer", "layer")]}
+    fitter = Stub(dict(rung))
+    fitter._seen.keys = {("layer",)}  # ("layer", "layer") finished in another thread
+    assert fitter.warm(("layer", "layer", "offset")) is rung["layer",]
+    fitter._seen.keys = None
+    assert fitter.warm(("layer", "layer", "offset")) is rung["layer", "layer"]

@@ -78,3 +78,35 @@ def test_fe_core_warm_starts_from_the_nearest_run(monkeypatch):
     with warm.iterating():
         warm.force(h, LAYER * np.array([1.0, 1.0, 1.5, 1.0]), sensitivities=False)
     assert warm.warm_starts == 1
+
+
+def test_runs_finished_in_any_order_are_kept_for_warm_starts_in_the_order_asked(monkeypatch):
+    """Worker processes finish in any order; the fields kept for the next warm starts (the nearest kept,
+    the oldest dropped first) are kept in the order the runs were asked, so a fit in the loop starts
+    every run from the same fields from one run of the program to the next."""
+    import skin_indent.models.fe_scheduler as fe_scheduler
+
+    class Reversed:  # a pool whose workers finish in the reverse order
+        def imap_unordered(self, fn, tasks):
+            done = [(key, fn(*args), None) for key, args in tasks]
+            return iter(done[::-1])
+
+    thetas = [LAYER * np.array([1.0, 1.0, 1.0 + 0.3 * k, 1.0]) for k in range(3)]  # beyond warm reach
+
+    def kept(pool):
+        core = FECore(("layer",), radius_mm=R, max_depth_mm=0.6, e_star_kPa=8.0, workers=1)
+        if pool is not None:
+            monkeypatch.setattr(core.scheduler, "pool", lambda: pool)
+        asked = []
+        original = core.scheduler._compute
+
+        def spy(todo, where, keys):
+            asked.extend(keys)
+            return original(todo, where, keys)
+
+        monkeypatch.setattr(core.scheduler, "_compute", spy)
+        core.prefetch(thetas)
+        return asked, list(core.scheduler._fields)
+
+    asked, fields = kept(Reversed())
+    assert len(asked) == 3 and fields == asked

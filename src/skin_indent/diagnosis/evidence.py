@@ -47,6 +47,12 @@ def sentence(candidate, s: Separation, ea: str, eb: str, noise_mN: float) -> str
         text of a diagnosis writes it in the units of the curve's scale
         (:func:`~skin_indent.measurement.scale.shown_in`: um and nN at AFM scale).
     """
+    if s.repeat:
+        return UnitText("{label} would separate {ea} from {eb} by {separation:.3g} noise units, the systematic part "
+                        "of the chi-square gap the recorded curve gives (the fitted models differ there by up to "
+                        "{diff:.3g}, {times:.1f} times the noise)", label=candidate.label, ea=ea, eb=eb,
+                        separation=s.separation, diff=Quantity(s.max_difference_mN, "mN"),
+                        times=s.max_difference_mN / noise_mN)
     return UnitText("{label} would separate {ea} from {eb}: the fitted models differ there by up to {diff:.3g}, "
                     "{times:.1f} times the noise, and by {separation:.3g} noise units in root-sum-square over its "
                     "{points} points", label=candidate.label, ea=ea, eb=eb, diff=Quantity(s.max_difference_mN, "mN"),

@@ -42,6 +42,9 @@ deviation is below :data:`DETERMINED` times its value.
 
 **What a candidate would separate**: the predicted curves of the diagnosis' choice and each
 rival over the candidate's points (:func:`~.measurements.separation`, :math:`S` in noise units).
+The same sphere again is the exception: both explanations were fitted to that very curve, so a
+repeat adds, in expectation, the chi-square gap the recorded curve already gives, less what the
+extra parameters gained by fitting its noise (:func:`~.measurements.repeated`), not the difference of curves each fitted in its own way.
 
 **The order** (:func:`rank`): the larger separation from the closest rival first (when
 explanations compete), then the more undetermined parameters determined, then the smaller
@@ -65,7 +68,7 @@ from ..models.composed import at_physical_limit
 from .criteria import FROM_FE, FROM_FIT, RIVAL
 from .measurements import (DEEPER, HOLD_S, Block, Candidate, Separation, acts_in_time, base_history, deeper,
                            free_columns, hold, joint_std, model_of, predict, recorded_history,
-                           separation, speed, sphere)
+                           repeated, separation, speed, sphere)
 
 log = logging.getLogger(__name__)
 
@@ -291,6 +294,15 @@ def _failure(values) -> str:
     return f"{type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}"
 
 
+def recorded_chi2(rung, noise_mN: float) -> float:
+    """The weighted chi-square of ``rung`` on the first recorded curve (the one the candidates replay),
+    against the one error model (:func:`~skin_indent.fitting.error_model.point_sigma`)."""
+    if rung.prediction_mN is None or rung.residuals_mN is None:
+        return float(rung.chi2) if len(rung.prepared) < 2 else math.nan
+    r, f = rung.per_curve(rung.residuals_mN)[0], rung.per_curve(rung.prediction_mN)[0]
+    return float(np.sum((np.asarray(r) / point_sigma(noise_mN, np.asarray(f))) ** 2))
+
+
 def weigh(rungs, current, curves, noises, *, with_std: bool, priors=None, mesh: str = "coarse", context=None,
           radii=None, max_depth_mm=None, hold_s=None, speeds=(), given=frozenset()) -> Outlook:
     """Every candidate measurement predicted by the fitted models: separations and standard deviations.
@@ -374,6 +386,9 @@ def weigh(rungs, current, curves, noises, *, with_std: bool, priors=None, mesh: 
         a = Assessment(c, forces={f.model: v[0] for f, v in zip(rungs, values)})
         a.separations = [separation(choice.model, f.model, a.forces[choice.model], a.forces[f.model], noise)
                          for f in rungs[1:]]
+        if c.reference:  # the recorded curve made again: what it already told apart (measurements.repeated)
+            a.separations = [repeated(s, recorded_chi2(choice, noise), recorded_chi2(f, noise), choice.n_free, f.n_free)
+                             for s, f in zip(a.separations, rungs[1:])]
         if blocks:
             extra = block(("jacobian", "candidate", k), noise, True)
             if extra is None:

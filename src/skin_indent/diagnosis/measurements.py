@@ -452,6 +452,9 @@ class Separation:
         S = sqrt(sum (F_b - F_a)^2 / sigma_i^2), sigma_i the error model at (F_a + F_b) / 2.
     points : int
         Points of the candidate.
+    repeat : bool
+        The candidate is the recorded measurement made again: ``separation`` is what the recorded curve
+        already told apart (:func:`repeated`), not the predicted curves' difference.
     """
 
     a: str
@@ -460,6 +463,7 @@ class Separation:
     max_difference_noise: float
     separation: float
     points: int
+    repeat: bool = False
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -472,6 +476,23 @@ def separation(a: str, b: str, fa, fb, noise_mN: float) -> Separation:
     top = float(np.max(np.abs(d)))
     s = float(np.sqrt(np.sum((d / point_sigma(noise_mN, 0.5 * (fa + fb))) ** 2)))
     return Separation(a, b, top, top / noise_mN, s, int(d.size))
+
+
+def repeated(s: Separation, chi2_a: float, chi2_b: float, k_a: int, k_b: int) -> Separation:
+    """``s`` for the recorded measurement made again, whose curve the two explanations have already met.
+
+    Both models were fitted to the recorded curve, so their predicted curves differ there by what each
+    absorbed of it, and ``s.separation`` (the rise before refitting) overstates what a repeat would tell
+    apart. Fitted together with the recorded curve, a repeat leaves the values where they are and adds,
+    in expectation, the systematic part of the recorded chi-square gap: the gap
+    :math:`\chi^2_b - \chi^2_a` (``chi2_a``, ``chi2_b``: the two fits on the recorded curve) less what
+    the model with more fitted parameters gained by fitting the noise, one per parameter
+    (:math:`E[\chi^2] = n - k` at the truth; a new curve's noise is not the recorded one's). Its
+    separation is :math:`S = \sqrt{|\chi^2_b - \chi^2_a - (k_a - k_b)|}` (``k_a``, ``k_b``: the fitted
+    parameters).
+    """
+    gap = abs(float(chi2_b) - float(chi2_a) - (int(k_a) - int(k_b)))
+    return dataclasses.replace(s, separation=math.sqrt(gap) if math.isfinite(gap) else math.nan, repeat=True)
 
 
 # ----------------------------------------------------------------------------- information

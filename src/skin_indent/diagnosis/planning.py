@@ -163,7 +163,10 @@ class Plan:
         a = top[0]
         parts = []
         s = a.closest
-        if s is not None:
+        if s is not None and s.repeat:
+            parts.append(f"made again it would add the systematic part of the chi-square gap the recorded curve gives between {s.a} and "
+                         f"{s.b}, {s.separation:.3g} noise units" + (", too little to separate them" if a.too_close else ""))
+        elif s is not None:
             parts.append(f"the predicted curves of {s.a} and {s.b} differ there by {s.separation:.3g} noise units in "
                          f"root-sum-square over its {s.points} points (up to {s.max_difference_mN:.3g} mN, "
                          f"{s.max_difference_noise:.1f} times the noise)"
@@ -203,7 +206,8 @@ class Plan:
                 parts.append(text)
             lines.append(f"not determined ({cur.model}): " + ", ".join(parts))
         lines.append("candidates, best first (S: root-sum-square difference of the predicted curves over the "
-                     f"candidate's points, noise units, before refitting, too close below {TOO_CLOSE:.3g}; sd: fitted "
+                     f"candidate's points, noise units, before refitting; the same sphere again: the systematic part of "
+                     f"the recorded chi-square gap; too close below {TOO_CLOSE:.3g}; sd: fitted "
                      "with the recorded curves):")
         for i, a in enumerate(self.ranking, 1):
             ref = " [the recorded measurement again]" if a.candidate.reference else ""

@@ -6,6 +6,7 @@ import contextlib
 import dataclasses
 import logging
 import math
+import threading
 
 import numpy as np
 
@@ -118,6 +119,7 @@ class Fitter:
         self.e_star = self.e_stars[0]
         self._cores = {}
         self.fits: dict[tuple, FitResult] = {}
+        self._seen = threading.local()  # in fit_all's threads: the fits a thread's warm starts may read
         #: the contact point is a parameter of every model of a curve recorded from before contact
         self.implicits = [(CONTACT_POINT.name,) if c.contact_mode == "fit" else () for c in curves]
         self.implicit = self.implicits[0]
@@ -253,8 +255,9 @@ class Fitter:
         of equal size, one of the same elastic body (:func:`~.starts.same_body`), else the first fitted."""
         want = sorted(effects)
         best = None
+        seen = getattr(self._seen, "keys", None)  # fit_all's threads: what was fitted before, and their own
         for key, rung in list(self.fits.items()):  # a copy: fits in other threads add to it
-            if len(key) >= len(effects):
+            if len(key) >= len(effects) or (seen is not None and key not in seen):
                 continue
             rest = list(want)
             try:
@@ -283,13 +286,25 @@ class Fitter:
         """
         from concurrent.futures import ThreadPoolExecutor
 
-        def attempt(group):
+        before = set(self.fits)
+
+        def attempt(group, threaded=False):
+            # a fit in a thread starts only from the fits made before this call and those of its own
+            # group: whether another thread's fit has finished yet must not change where it starts
+            if threaded:
+                self._seen.keys = set(before)
             out = {}
-            for key in group:
-                try:
-                    out[key] = self.fit(key)
-                except ValueError as err:
-                    out[key] = err
+            try:
+                for key in group:
+                    try:
+                        out[key] = self.fit(key)
+                    except ValueError as err:
+                        out[key] = err
+                    if threaded:
+                        self._seen.keys.add(key)
+            finally:
+                if threaded:
+                    self._seen.keys = None
             return out
 
         keys = [tuple(k) for k in keys]
@@ -318,7 +333,7 @@ class Fitter:
                     core.start_workers()  # forked from this (the main) thread, not from the fits'
                 pool = ThreadPoolExecutor(max_workers=len(groups))
                 try:
-                    for out in pool.map(attempt, groups.values()):
+                    for out in pool.map(lambda g: attempt(g, threaded=True), groups.values()):
                         done.update(out)
                 except BaseException:  # an interrupt: the other threads stop at their next run
                     for core in cores:

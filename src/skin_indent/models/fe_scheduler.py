@@ -282,7 +282,8 @@ class RunScheduler:
         """Solve the runs ``keys`` of ``todo`` (``where``: their parameters and mesh references):
         ``(key, run, error)`` as they finish (one alone here, unless :meth:`in_workers`; several in
         the worker processes), each on its mesh (built here), warm-started from the nearest run made
-        before (:meth:`warm_start`); their converged fields are kept for the next."""
+        before (:meth:`warm_start`); their converged fields are kept for the next, in the order of
+        ``keys`` once all have finished."""
         tasks = {}
         for key in keys:
             run = todo[key]
@@ -293,11 +294,13 @@ class RunScheduler:
             self.warm_starts += initial is not None
             tasks[key] = self._arguments(run, imesh, initial)
 
+        finished = {}
+
         def done(key, value, error):
             if error is not None:
                 return key, None, error
             h, F, S, fields = value
-            self._keep_fields(key, *where[key][:2], zip(h, fields))
+            finished[key] = zip(h, fields)
             return key, (h, F, S), None
 
         if len(keys) == 1 and not self.in_workers_now:
@@ -311,6 +314,11 @@ class RunScheduler:
         elif keys:
             for key, value, error in self.pool().imap_unordered(solve_unit, tasks.items()):
                 yield done(key, value, error)
+        # kept in the order asked, not the order the workers finished: the next warm starts (the nearest
+        # kept, the oldest dropped first) and so every fit in the loop are the same from run to run
+        for key in keys:
+            if key in finished:
+                self._keep_fields(key, *where[key][:2], finished[key])
 
     def run_parts(self, run: Run, reference_mm) -> dict:
         """The key parts (:meth:`~skin_indent.response_surface.RunCache.key`) of ``run`` on a mesh
