@@ -20,7 +20,7 @@ import pytest
 from _data import DATA
 from skin_indent.cli import main
 from skin_indent.fitting import fit
-from skin_indent.fitting.knowledge import prior_summary
+from skin_indent.fitting.knowledge import needs_data_alone, prior_summary
 from skin_indent.inverse import fit_least_squares
 
 #: the hidden-effect curves were made with this noise (tests/data/hidden-effects/README.md)
@@ -103,7 +103,14 @@ def test_prior_summary_says_who_determined_a_parameter_and_flags_tension():
     post, post_sd = (1.5 / 0.05**2 + 1.0 / 0.1**2) / info, info**-0.5
     s = prior_summary(post, post_sd, 1.0, 0.1)
     assert s["tension_sd"] == pytest.approx(0.5 / math.hypot(0.05, 0.1), rel=1e-9)
-    assert s["in_tension"]
+    assert s["in_tension"] and not needs_data_alone(s)  # the data determine it: the linearisation holds
+    # a prior that determines the parameter: a shift of 0.67 prior sd extrapolates to 5 combined sd; the
+    # fit without the prior decides (here it says 1.02 +- 0.7: no tension)
+    weak = prior_summary(1.067, 0.0991, 1.0, 0.1)
+    assert weak["determined_by"] == "prior" and weak["in_tension"] and needs_data_alone(weak)
+    checked = prior_summary(1.067, 0.0991, 1.0, 0.1, alone=(1.02, 0.7))
+    assert checked["tension_sd"] == pytest.approx(0.02 / math.hypot(0.7, 0.1), rel=1e-9)
+    assert not checked["in_tension"] and checked["data_alone"] == 1.02
 
 
 def test_a_layer_with_its_thickness_held_is_recovered_from_an_independent_code(hidden, cache, context):

@@ -23,7 +23,7 @@ from .error_model import MODEL_ERROR, described, point_sigma
 from .result import scored
 from .result import FitResult
 from .rung import NO_STRUCTURE, evidence, reported_covariance, structure_sentence
-from .knowledge import held_coordinates, prior_rows, prior_summary
+from .knowledge import held_coordinates, needs_data_alone, prior_rows, prior_summary
 from .scale_checks import check_points
 from .ended import how_it_ended, reported_message, stalled
 from .resume import at_rigid_base, cost as _cost, first_fit, resumed
@@ -49,6 +49,19 @@ FE_PROBE = 5
 FE_TOL = 1e-4
 #: function evaluations of a fit on response surfaces (None: scipy's default, 100 per parameter)
 SURFACE_MAX_EVALUATIONS = None
+
+
+def _coordinates(model, best) -> tuple[np.ndarray, np.ndarray]:
+    """The fit coordinates of ``best`` (an IdentificationResult of ``model``) in the model's order and their
+    covariance (held values: 0; the free ones' as fitted, NaN where it has none)."""
+    x = np.array([best.parameters[n] for n in model.parameter_names])
+    cov = np.full((x.size, x.size), np.nan)
+    idx = [model.parameter_names.index(n) for n in best.free_names]
+    held = [model.parameter_names.index(n) for n in best.fixed_names]
+    cov[held, :] = 0.0  # a held value has no variance
+    cov[:, held] = 0.0
+    cov[np.ix_(idx, idx)] = best.covariance
+    return x, cov
 
 
 class Fitter:
@@ -158,13 +171,14 @@ class Fitter:
         (:func:`held_coordinates`)."""
         return held_coordinates(model, self.fixed)
 
-    def prior_terms(self, model) -> list:
-        """The priors on parameters of ``model``, as :func:`~skin_indent.inverse.fit_least_squares`
-        takes them: ``(g, mean, sd)`` with ``g(theta)`` the reported parameter."""
+    def prior_terms(self, model, but: str | None = None) -> list:
+        """The priors on parameters of ``model`` (all but the one on ``but``), as
+        :func:`~skin_indent.inverse.fit_least_squares` takes them: ``(g, mean, sd)`` with ``g(theta)``
+        the reported parameter."""
         reported = model.model_parameters(0.5 * (model.bounds[0] + np.minimum(model.bounds[1], 1e6)))
         out = []
         for k, (m, sd) in self.priors.items():
-            if k in reported:
+            if k in reported and k != but:
                 out.append((lambda theta, k=k: float(model.model_parameters(theta)[k]), m, sd))
         return out
 
@@ -269,6 +283,22 @@ class Fitter:
                     len(key) == len(best.effects) and same_body(rung, effects) and not same_body(best, effects)):
                 best = rung  # of equal size, the one of the same elastic body (starts.same_body)
         return best
+
+    def _data_alone(self, model, x, known: dict, options: dict, name: str) -> tuple[float, float]:
+        """``(value, sd)`` of the reported parameter ``name`` by the fit of ``model`` without its prior,
+        from the fit with it at ``x`` (the fit coordinates); NaN where that fit fails
+        (:func:`~.knowledge.needs_data_alone` says when it is made)."""
+        terms = self.prior_terms(model, but=name)
+        d = self.data
+        try:
+            alone = fit_least_squares(model, d.depth_mm, d.force_mN, x, noise_mN=self.noise_mN,
+                                      **{**known, "priors": terms or None}, **options)
+        except ValueError:
+            return math.nan, math.nan
+        params, std = model.reported(*_coordinates(model, alone))
+        log.info("%s: the prior's tension checked by the fit without it: %s = %.4g +- %.2g", model.name, name,
+                 params[name], std.get(name, math.nan))
+        return float(params[name]), float(std.get(name, math.nan))
 
     def prior_chi2(self, model, x) -> float:
         """The priors' share of the cost at ``x``: sum of ((g(x) - mean) / sd)^2."""
@@ -454,14 +484,8 @@ class Fitter:
             cached = sum(getattr(c, "cached", 0) for c in model.cores) - cached0
             log.info("fitted %s: %d finite-element runs%s", model.name, runs,
                      f" ({cached} read from the run cache)" if cached else "")
-        x = np.array([best.parameters[n] for n in model.parameter_names])
+        x, cov = _coordinates(model, best)
         pred = d.force_mN - best.residuals_mN
-        cov = np.full((x.size, x.size), np.nan)
-        idx = [model.parameter_names.index(n) for n in best.free_names]
-        held = [model.parameter_names.index(n) for n in best.fixed_names]
-        cov[held, :] = 0.0  # a held value has no variance
-        cov[:, held] = 0.0
-        cov[np.ix_(idx, idx)] = best.covariance
         active = [n for n in best.info.get("active_bounds", ()) if n in best.free_names]
         if active and not np.all(np.isfinite(best.covariance)):
             # a parameter on a face of its range (a rigid base: compliance 0) is held there: the
@@ -482,6 +506,10 @@ class Fitter:
             std.pop(k, None)
         knowledge = {k: prior_summary(params[k], std.get(k, math.nan), *self.priors[k])
                      for k in self.priors if k in params}
+        for k, summary in knowledge.items():
+            if needs_data_alone(summary):  # the linearised tension of a prior-determined parameter: refit without it
+                knowledge[k] = prior_summary(params[k], std.get(k, math.nan), *self.priors[k],
+                                             alone=self._data_alone(model, x, known, options, k))
         r = best.residuals_mN
         s = self.sigma(pred)
         try:

@@ -317,8 +317,9 @@ def curve_summaries(rung, fitter, noise_sources) -> list[dict]:
 def knowledge_of(rung, fitter) -> tuple[list, list]:
     """What the user knew, as every fit reports it: the flags of priors in tension with the data, and the
     notes of the values held and of each prior (prior, posterior, how much the data narrowed it)."""
-    flags = [f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree "
-             f"({s['tension_sd']:.1f} combined sd apart)" for name, s in rung.priors.items() if s["in_tension"]]
+    flags = [f"{name}: the prior {s['prior_mean']:.4g} +- {s['prior_sd']:.2g} and the data disagree ("
+             + (f"the data alone: {s['data_alone']:.4g} +- {s['data_alone_sd']:.2g}, " if "data_alone" in s else "")
+             + f"{s['tension_sd']:.1f} combined sd apart)" for name, s in rung.priors.items() if s["in_tension"]]
     notes = [UnitText("{name} held at {value:g}", name=Name(name), value=Quantity(v, name))
              for name, v in fitter.fixed.items() if name in rung.parameters]
     for name, s in rung.priors.items():
