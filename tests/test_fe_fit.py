@@ -387,7 +387,7 @@ def test_add_layer_twice_is_two_layers_in_diagnosis():
     and finds them: the curve (medium mesh, as measured curves have no coarse-mesh node crossings)
     is explained within the noise allowance and the layers are within 3 sd of the truth."""
     from skin_indent.diagnosis import diagnose
-    from skin_indent.diagnosis.measurements import error_model
+    from skin_indent.diagnosis.separation import error_model
     from skin_indent.measurement import measurement_from_arrays
     from skin_indent.mechanics.protocol import Protocol
 
