@@ -13,7 +13,8 @@ physical effect is missing, add it and watch the error fall.
 - :mod:`.evidence`: the sentence naming the measurement that separates two explanations;
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
 - :mod:`.criteria`: what it decides by (the BIC margins, the noise allowance, :func:`~.criteria.explained`);
-- :mod:`.result`: its outcome, :class:`Diagnosis`: the text, sentence and JSON of one set of numbers;
+- :mod:`.result`: its outcome, :class:`Diagnosis`: the text, sentence and JSON of one set of numbers
+  (the text written by :mod:`.result_text`);
 - :mod:`.planning`: :func:`plan`, the next measurement: the candidates ranked by how well they
   would separate the explanations a diagnosis left and determine its undetermined parameters;
 - :mod:`.batch`: :func:`diagnose_many`, every curve of files, folders and force maps, in parallel,

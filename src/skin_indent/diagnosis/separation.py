@@ -80,7 +80,7 @@ def separation(a: str, b: str, fa, fb, noise_mN: float) -> Separation:
 
 
 def repeated(s: Separation, chi2_a: float, chi2_b: float, k_a: int, k_b: int) -> Separation:
-    """``s`` for the recorded measurement made again, whose curve the two explanations have already met.
+    r"""``s`` for the recorded measurement made again, whose curve the two explanations have already met.
 
     Both models were fitted to the recorded curve, so their predicted curves differ there by what each
     absorbed of it, and ``s.separation`` (the rise before refitting) overstates what a repeat would tell
