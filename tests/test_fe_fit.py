@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from skin_indent.effects import Model, instances
-from skin_indent.mechanics.contact import SphericalIndenter
+from skin_indent.mechanics.contact_law import SphericalIndenter
 from skin_indent.mechanics.mesh import graded_mesh
 from skin_indent.models.fe_core import FECore
 from skin_indent.models.fe_runs import morph
