@@ -117,7 +117,7 @@ def test_secant_updates_carry_the_thickness_columns_between_fresh_differences(co
     every SECANT_REFRESH Jacobians and at the start of a fit. Outside a fit the Jacobian is exact
     and its runs solve INCREMENTS depths (within a fit FIT_INCREMENTS: the two agree to the
     discretisation, 1% of the largest derivative here)."""
-    from skin_indent.models.fe_core import SECANT_REFRESH
+    from skin_indent.models.fe_jacobian import SECANT_REFRESH
 
     h = np.linspace(0.05, 0.6, 8)
     a = TWO_LAYERS.copy()
