@@ -44,7 +44,8 @@ deviation is below :data:`DETERMINED` times its value.
 rival over the candidate's points (:func:`~.separation.separation`, :math:`S` in noise units).
 The same sphere again is the exception: both explanations were fitted to that very curve, so a
 repeat adds, in expectation, the chi-square gap the recorded curve already gives, less what the
-extra parameters gained by fitting its noise (:func:`~.separation.repeated`), not the difference of curves each fitted in its own way.
+extra parameters gained by fitting its noise (:func:`~.separation.repeated`), not the difference of
+curves each fitted in its own way.
 
 **The order** (:func:`rank`): the larger separation from the closest rival first (when
 explanations compete), then the more undetermined parameters determined, then the smaller

@@ -147,7 +147,8 @@ class Model:
         return self.spec(theta).sample()
 
     def contact(self, theta: dict):
-        """The :class:`~skin_indent.mechanics.contact_law.ContactLaw` of ``theta`` (frictionless, non-adhesive by default)."""
+        """The :class:`~skin_indent.mechanics.contact_law.ContactLaw` of ``theta`` (frictionless, non-adhesive by
+        default)."""
         from ..mechanics.contact_law import ContactLaw
 
         return ContactLaw(**self.spec(theta).contact)
