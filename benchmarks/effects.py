@@ -56,7 +56,7 @@ import numpy as np
 from _bench import HERE, ROOT, write_results  # noqa: E402,F401  (makes skin_indent importable from a checkout)
 
 from skin_indent.effects import Model  # noqa: E402
-from skin_indent.mechanics.contact import ContactLaw  # noqa: E402
+from skin_indent.mechanics.contact_law import ContactLaw  # noqa: E402
 from skin_indent.mechanics.protocol import Protocol  # noqa: E402
 
 RADIUS_MM = 6.22

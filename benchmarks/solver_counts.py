@@ -58,7 +58,7 @@ from _bench import HERE, ROOT, write_results  # noqa: E402,F401  (makes skin_ind
 
 import skin_indent.mechanics.solver as solver_module  # noqa: E402
 from skin_indent.mechanics import IndentationProblem, LinearElastic, NeoHooke, SphericalIndenter  # noqa: E402
-from skin_indent.mechanics.contact import ContactLaw  # noqa: E402
+from skin_indent.mechanics.contact_law import ContactLaw  # noqa: E402
 from skin_indent.mechanics.layers import RIGID, Layer, LayeredSample  # noqa: E402
 from skin_indent.mechanics.linear import TangentSolver  # noqa: E402
 from skin_indent.mechanics.mesh import graded_mesh  # noqa: E402

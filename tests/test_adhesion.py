@@ -23,7 +23,7 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from skin_indent.mechanics import IndentationProblem, LinearElastic, NeoHooke, SphericalIndenter, graded_mesh
-from skin_indent.mechanics.contact import ContactLaw
+from skin_indent.mechanics.contact_law import ContactLaw
 from skin_indent.mechanics.convergence import NewtonReport
 from skin_indent.mechanics.protocol import Protocol
 from skin_indent.simulate import simulate

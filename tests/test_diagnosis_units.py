@@ -22,7 +22,8 @@ from skin_indent.cli import main
 from skin_indent.diagnosis import diagnose
 from skin_indent.diagnosis.evidence import sentence as separation_sentence
 from skin_indent.diagnosis.identifiability import Assessment, Outlook, candidates, suggestion
-from skin_indent.diagnosis.measurements import Separation, base_history
+from skin_indent.diagnosis.measurements import base_history
+from skin_indent.diagnosis.separation import Separation
 from skin_indent.measurement import load_csv
 from skin_indent.measurement.scale import (AFM_UNITS, PACKAGE_UNITS, SKIN_UNITS, Quantity, Unit, UnitText, joined,
                                           shown_in)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from skin_indent.effects import Model, instances
-from skin_indent.mechanics.contact import SphericalIndenter
+from skin_indent.mechanics.contact_law import SphericalIndenter
 from skin_indent.mechanics.mesh import graded_mesh
 from skin_indent.models.fe_core import FECore
 from skin_indent.models.fe_runs import morph
@@ -117,7 +117,7 @@ def test_secant_updates_carry_the_thickness_columns_between_fresh_differences(co
     every SECANT_REFRESH Jacobians and at the start of a fit. Outside a fit the Jacobian is exact
     and its runs solve INCREMENTS depths (within a fit FIT_INCREMENTS: the two agree to the
     discretisation, 1% of the largest derivative here)."""
-    from skin_indent.models.fe_core import SECANT_REFRESH
+    from skin_indent.models.fe_jacobian import SECANT_REFRESH
 
     h = np.linspace(0.05, 0.6, 8)
     a = TWO_LAYERS.copy()
@@ -387,7 +387,7 @@ def test_add_layer_twice_is_two_layers_in_diagnosis():
     and finds them: the curve (medium mesh, as measured curves have no coarse-mesh node crossings)
     is explained within the noise allowance and the layers are within 3 sd of the truth."""
     from skin_indent.diagnosis import diagnose
-    from skin_indent.diagnosis.measurements import error_model
+    from skin_indent.diagnosis.separation import error_model
     from skin_indent.measurement import measurement_from_arrays
     from skin_indent.mechanics.protocol import Protocol
 

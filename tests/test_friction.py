@@ -39,7 +39,7 @@ from scipy.integrate import IntegrationWarning, quad
 from scipy.special import ellipe, ellipk
 
 from skin_indent.mechanics import IndentationProblem, LinearElastic, NeoHooke, SphericalIndenter, graded_mesh
-from skin_indent.mechanics.contact import ContactLaw
+from skin_indent.mechanics.contact_law import ContactLaw
 from skin_indent.mechanics.protocol import Protocol
 from skin_indent.simulate import simulate
 

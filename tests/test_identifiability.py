@@ -19,7 +19,9 @@ import numpy as np
 import pytest
 
 from skin_indent.diagnosis import identifiability as idf
-from skin_indent.diagnosis.measurements import Block, free_columns, joint_std, predicted_force, recorded_history
+from skin_indent.diagnosis.information import Block, free_columns, joint_std
+from skin_indent.diagnosis.measurements import recorded_history
+from skin_indent.diagnosis.prediction import predicted_force
 from skin_indent.effects import EffectParameter, Model
 from skin_indent.measurement import measurement_from_arrays, prepare
 from skin_indent.models import ComposedModel
@@ -129,11 +131,11 @@ def test_sentence_names_the_measurement_and_reading_makes_no_run(shallow, monkey
     """(iii) The sentence says, per undetermined parameter, which measurement fitted with the curve
     would determine it (or that none would); the finite-element runs behind it are made by diagnose,
     once: reading the result (sentence, report, JSON) makes none."""
-    from skin_indent.diagnosis import measurements, workflow
+    from skin_indent.diagnosis import prediction, workflow
 
     d = shallow
     monkeypatch.setattr(workflow, "weigh", lambda *a, **k: pytest.fail("a finite-element run on reading"))
-    monkeypatch.setattr(measurements, "predicted_force", lambda *a, **k: pytest.fail("a run on reading"))
+    monkeypatch.setattr(prediction, "predicted_force", lambda *a, **k: pytest.fail("a run on reading"))
     assert d.missing == ("offset",), d.report()
     reasons = d.undetermined()
     assert "nu" in reasons, d.report()
@@ -155,15 +157,15 @@ def test_diagnose_and_plan_name_the_same_next_measurement_and_sd(shallow, monkey
     deviations, without a run; and the same candidates weighed again from scratch (the settings
     given explicitly) give the same ranking and the same numbers, which the diagnosis' sentences
     quote."""
-    from skin_indent.diagnosis import measurements, plan
+    from skin_indent.diagnosis import plan, prediction
 
     d = shallow
     assert d.outlook is not None and d.outlook.with_std, d.report()
-    real = measurements.predicted_force
-    monkeypatch.setattr(measurements, "predicted_force", lambda *a, **k: pytest.fail("plan re-ran the diagnosis'"))
+    real = prediction.predicted_force
+    monkeypatch.setattr(prediction, "predicted_force", lambda *a, **k: pytest.fail("plan re-ran the diagnosis'"))
     p = plan(d)
     assert p.ranking and p.ranking[0] is d.outlook.next and set(p.undetermined) == set(d.not_determined)
-    monkeypatch.setattr(measurements, "predicted_force", real)
+    monkeypatch.setattr(prediction, "predicted_force", real)
     fresh = plan(d, radii=(R / 2, 2 * R), context=Context(workers=1))  # given: weighed again
     assert [a.candidate.label for a in fresh.ranking] == [a.candidate.label for a in p.ranking], fresh.report()
     for a, b in zip(fresh.ranking, p.ranking):
@@ -185,9 +187,9 @@ def test_diagnose_and_plan_name_the_same_next_measurement_and_sd(shallow, monkey
 def test_failing_candidates_are_not_suggested(shallow, monkeypatch):
     """(iii) A finite-element run that fails (any error) removes that measurement from the
     suggestions; when every one fails the reason says only what the curve does not determine."""
-    from skin_indent.diagnosis import measurements
+    from skin_indent.diagnosis import prediction
 
-    real = measurements.predicted_force
+    real = prediction.predicted_force
     rung, d = shallow.current, shallow
 
     def spheres_fail(effects, theta, history, *args, **kwargs):
@@ -195,7 +197,7 @@ def test_failing_candidates_are_not_suggested(shallow, monkeypatch):
             raise RuntimeError("the Newton iterations did not converge")
         return real(effects, theta, history, *args, **kwargs)
 
-    monkeypatch.setattr(measurements, "predicted_force", spheres_fail)
+    monkeypatch.setattr(prediction, "predicted_force", spheres_fail)
     outlook = idf.weigh([rung], rung, d.curves, d.noises_mN, with_std=True, context=Context(workers=1))
     reason = idf.determine(rung, {}, outlook)[2]["nu"]
     assert "radius" not in reason and "times deeper) with the same sphere would determine it to +-" in reason, reason
@@ -204,7 +206,7 @@ def test_failing_candidates_are_not_suggested(shallow, monkeypatch):
     def everything_fails(*args, **kwargs):
         raise ValueError("finite-element run failed at nu = 0.49: no convergence")
 
-    monkeypatch.setattr(measurements, "predicted_force", everything_fails)
+    monkeypatch.setattr(prediction, "predicted_force", everything_fails)
     outlook = idf.weigh([rung], rung, d.curves, d.noises_mN, with_std=True, context=Context(workers=1))
     std, source, reasons, _ = idf.determine(rung, {}, outlook)
     assert reasons["nu"].endswith("not determined by this curve") and outlook.notes
@@ -274,14 +276,14 @@ def test_physical_limits_are_declared_not_named():
 def test_the_engine_weighs_by_the_one_error_model(monkeypatch):
     """Issue 38: the separation and the information blocks weigh each point by the error model of every
     fit (``fitting.error_model.point_sigma``), the numbers those of sqrt(noise^2 + (0.003 F)^2)."""
-    from skin_indent.diagnosis import measurements
+    from skin_indent.diagnosis import separation as sep
     from skin_indent.fitting.error_model import MODEL_ERROR, point_sigma
 
     fa, fb, noise = np.array([0.0, 1.0, 5.0, 12.0]), np.array([0.01, 1.05, 5.2, 12.5]), 0.04
     sigma = np.sqrt(noise**2 + (0.003 * 0.5 * (fa + fb)) ** 2)
     assert MODEL_ERROR == 0.003
-    np.testing.assert_array_equal(measurements.error_model(0.5 * (fa + fb), noise), point_sigma(noise, 0.5 * (fa + fb)))
-    s = measurements.separation("a", "b", fa, fb, noise)
+    np.testing.assert_array_equal(sep.error_model(0.5 * (fa + fb), noise), point_sigma(noise, 0.5 * (fa + fb)))
+    s = sep.separation("a", "b", fa, fb, noise)
     assert s.separation == pytest.approx(float(np.sqrt(np.sum(((fb - fa) / sigma) ** 2))), rel=1e-12)
     calls = []
 
@@ -289,6 +291,6 @@ def test_the_engine_weighs_by_the_one_error_model(monkeypatch):
         calls.append(noise_mN)
         return point_sigma(noise_mN, force_mN, model_error)
 
-    monkeypatch.setattr(measurements, "point_sigma", spy)
-    assert measurements.separation("a", "b", fa, fb, noise).separation == s.separation
-    assert measurements.error_model(fa, 0.02).shape == fa.shape and calls == [noise, 0.02]
+    monkeypatch.setattr(sep, "point_sigma", spy)
+    assert sep.separation("a", "b", fa, fb, noise).separation == s.separation
+    assert sep.error_model(fa, 0.02).shape == fa.shape and calls == [noise, 0.02]

@@ -23,8 +23,9 @@ from _data import DATA, load_curve
 
 import skin_indent as si
 from skin_indent.diagnosis.identifiability import candidates, recorded_chi2
-from skin_indent.diagnosis.measurements import (Block, acts_in_time, base_history, hold, joint_std, predict,
-                                                predicted_force, sphere)
+from skin_indent.diagnosis.information import Block, joint_std
+from skin_indent.diagnosis.measurements import acts_in_time, base_history, hold, sphere
+from skin_indent.diagnosis.prediction import predict, predicted_force
 from skin_indent.diagnosis.planning import TOO_CLOSE, plan
 from skin_indent.effects import Model, instances
 from skin_indent.fitting.multistart import MODEL_ERROR

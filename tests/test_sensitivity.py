@@ -28,7 +28,8 @@ import numpy as np
 import pytest
 
 from skin_indent import simulate
-from skin_indent.mechanics.contact import ContactLaw, SphereContact, SphericalIndenter
+from skin_indent.mechanics.contact import SphereContact
+from skin_indent.mechanics.contact_law import ContactLaw, SphericalIndenter
 from skin_indent.mechanics.layers import RIGID, Layer, LayeredSample
 from skin_indent.mechanics.materials import LinearElastic, NeoHooke, NeoHookeStiffening, PronyTerm, Viscoelastic
 from skin_indent.mechanics.protocol import Protocol

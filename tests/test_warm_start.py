@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from skin_indent.mechanics.contact import SphericalIndenter
+from skin_indent.mechanics.contact_law import SphericalIndenter
 from skin_indent.models.fe_core import FECore
 from skin_indent.simulate import simulate
 
@@ -43,7 +43,7 @@ def test_a_warm_start_gives_the_cold_solution():
 
 
 def test_a_history_dependent_problem_refuses_a_warm_start():
-    from skin_indent.mechanics.contact import ContactLaw
+    from skin_indent.mechanics.contact_law import ContactLaw
     from skin_indent.mechanics.materials import NeoHooke
     from skin_indent.mechanics.protocol import Protocol
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .mechanics.contact import ContactLaw, SphericalIndenter
+from .mechanics.contact_law import ContactLaw, SphericalIndenter
 from .mechanics.layers import LayeredSample
 from .mechanics.materials import Material, NeoHooke
 from .mechanics.mesh import DEFAULT_MESH, IndentationMesh, graded_mesh, load_mesh

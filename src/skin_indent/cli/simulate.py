@@ -77,7 +77,7 @@ def add_simulate(sub):
 
 
 def _run_simulate(args) -> int:
-    from ..mechanics.contact import SphericalIndenter
+    from ..mechanics.contact_law import SphericalIndenter
     from ..measurement import load_csv
     from ..mechanics.protocol import Protocol
 
@@ -86,7 +86,7 @@ def _run_simulate(args) -> int:
     for path in [args.out] + ([args.vtu] if args.vtu else []):
         if not path.parent.exists():
             raise CLIError(f"output folder does not exist: {path.parent}")
-    from ..mechanics.contact import ContactLaw
+    from ..mechanics.contact_law import ContactLaw
 
     contact = ContactLaw(friction=args.friction, adhesion_mJ_per_m2=args.adhesion)
     protocol = None

@@ -68,7 +68,7 @@ def _surface_requests(args) -> list[tuple[float, float, list[str]]]:
 def _run_surface_build(args) -> int:
     import time
 
-    from ..mechanics.contact import SphericalIndenter
+    from ..mechanics.contact_law import SphericalIndenter
     from ..response_surface import SurfaceGrid, parse_range
     from ..runtime.context import Context
     from ..fitting import surface_for

@@ -6,12 +6,15 @@ physical effect is missing, add it and watch the error fall.
 - :mod:`.identifiability`: the one engine of the next measurement: what the curve determines, which
   measurement would separate the explanations and determine the rest (the diagnosis' sentences and
   :func:`plan` read it);
-- :mod:`.measurements`: the measurements a user can make next, what fitted models predict for
-  them (every finite-element run through one function), how far apart, what they would determine;
+- :mod:`.measurements`: the measurements a user can make next, as their points would be recorded;
+  :mod:`.prediction`: what fitted models predict for them (every finite-element run through one
+  function); :mod:`.separation`: how far apart two explanations' curves lie; :mod:`.information`:
+  what a measurement would determine fitted with the recorded curves;
 - :mod:`.evidence`: the sentence naming the measurement that separates two explanations;
 - :mod:`.workflow`: :func:`diagnose`, the ranking of candidate effects and the ladder;
 - :mod:`.criteria`: what it decides by (the BIC margins, the noise allowance, :func:`~.criteria.explained`);
-- :mod:`.result`: its outcome, :class:`Diagnosis`: the text, sentence and JSON of one set of numbers;
+- :mod:`.result`: its outcome, :class:`Diagnosis`: the text, sentence and JSON of one set of numbers
+  (the text written by :mod:`.result_text`);
 - :mod:`.planning`: :func:`plan`, the next measurement: the candidates ranked by how well they
   would separate the explanations a diagnosis left and determine its undetermined parameters;
 - :mod:`.batch`: :func:`diagnose_many`, every curve of files, folders and force maps, in parallel,

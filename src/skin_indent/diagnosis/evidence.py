@@ -4,7 +4,7 @@ The sentence of a diagnosis (``suggested_measurement``), read from the one engin
 (:mod:`.identifiability`: :func:`~.identifiability.weigh`, the candidates, predictions and
 ranking that :func:`~skin_indent.diagnosis.planning.plan` reads too): it names the next
 measurement, the candidate ranked first, with how far apart the choice and its closest rival
-predict it (:func:`~.measurements.separation`).
+predict it (:func:`~.separation.separation`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from ..measurement.scale import Quantity, UnitText
-from .measurements import Separation
+from .separation import Separation
 
 __all__ = ["sentence", "suggest_measurement"]
 

@@ -27,8 +27,8 @@ the fitted model fits one), with the priors' rows,
     W_k = \mathrm{diag}(1 / \sigma_{k,i}^2), \quad
     \sigma_{k,i}^2 = \sigma_k^2 + (\varepsilon F_{k,i})^2,
 
-(:func:`~.measurements.joint_std`) with :math:`J_k` the finite-element Jacobian of the fitted
-model at its values on curve :math:`k`'s points (:func:`~.measurements.predicted_force`:
+(:func:`~.information.joint_std`) with :math:`J_k` the finite-element Jacobian of the fitted
+model at its values on curve :math:`k`'s points (:func:`~.prediction.predicted_force`:
 direct-differentiation sensitivities, one run per thickness), :math:`\sigma_k` the recorded
 noise and :math:`\varepsilon` = :data:`~skin_indent.fitting.error_model.MODEL_ERROR`
 (:func:`~skin_indent.fitting.error_model.point_sigma`, the error model of every fit). The candidate
@@ -41,10 +41,11 @@ interpolated slopes can inflate the fit's). A parameter is *determined* when its
 deviation is below :data:`DETERMINED` times its value.
 
 **What a candidate would separate**: the predicted curves of the diagnosis' choice and each
-rival over the candidate's points (:func:`~.measurements.separation`, :math:`S` in noise units).
+rival over the candidate's points (:func:`~.separation.separation`, :math:`S` in noise units).
 The same sphere again is the exception: both explanations were fitted to that very curve, so a
 repeat adds, in expectation, the chi-square gap the recorded curve already gives, less what the
-extra parameters gained by fitting its noise (:func:`~.measurements.repeated`), not the difference of curves each fitted in its own way.
+extra parameters gained by fitting its noise (:func:`~.separation.repeated`), not the difference of
+curves each fitted in its own way.
 
 **The order** (:func:`rank`): the larger separation from the closest rival first (when
 explanations compete), then the more undetermined parameters determined, then the smaller
@@ -66,9 +67,11 @@ from ..measurement.scale import Name, Quantity, UnitText
 from ..models import JointModel
 from ..models.composed import at_physical_limit
 from .criteria import FROM_FE, FROM_FIT, RIVAL
-from .measurements import (DEEPER, HOLD_S, Block, Candidate, Separation, acts_in_time, base_history, deeper,
-                           free_columns, hold, joint_std, model_of, predict, recorded_history,
-                           repeated, separation, speed, sphere)
+from .information import Block, free_columns, joint_std
+from .measurements import (DEEPER, HOLD_S, Candidate, acts_in_time, base_history, deeper, hold, recorded_history,
+                           speed, sphere)
+from .prediction import model_of, predict
+from .separation import Separation, repeated, separation
 
 log = logging.getLogger(__name__)
 
@@ -90,7 +93,7 @@ class Assessment:
     forces : dict
         ``{model: ndarray}``: each explanation's predicted curve at the candidate's points (mN).
     separations : list of Separation
-        The choice against each rival (:class:`~.measurements.Separation`).
+        The choice against each rival (:class:`~.separation.Separation`).
     std : dict
         ``{reported parameter: standard deviation}`` of the current model when the candidate is
         fitted with the recorded curves (empty when not computed).
@@ -322,7 +325,7 @@ def weigh(rungs, current, curves, noises, *, with_std: bool, priors=None, mesh: 
     mesh : str
         Mesh of the finite-element runs.
     context : Context, optional
-        Where the runs go and are kept (all at once: :func:`~.measurements.predict`).
+        Where the runs go and are kept (all at once: :func:`~.prediction.predict`).
     radii, max_depth_mm, hold_s, speeds, given
         The candidate settings (:func:`candidates`).
 
@@ -386,7 +389,7 @@ def weigh(rungs, current, curves, noises, *, with_std: bool, priors=None, mesh: 
         a = Assessment(c, forces={f.model: v[0] for f, v in zip(rungs, values)})
         a.separations = [separation(choice.model, f.model, a.forces[choice.model], a.forces[f.model], noise)
                          for f in rungs[1:]]
-        if c.reference:  # the recorded curve made again: what it already told apart (measurements.repeated)
+        if c.reference:  # the recorded curve made again: what it already told apart (separation.repeated)
             a.separations = [repeated(s, recorded_chi2(choice, noise), recorded_chi2(f, noise), choice.n_free, f.n_free)
                              for s, f in zip(a.separations, rungs[1:])]
         if blocks:

@@ -1,42 +1,17 @@
-r"""Measurements of the same sample that a user can make next, and what fitted models predict for them.
+r"""Measurements of the same sample that a user can make next, as their points would be recorded.
 
-The parts of the one engine of the next measurement (:func:`~.identifiability.weigh`, which
-the diagnosis' sentences and :func:`~skin_indent.diagnosis.planning.plan` read):
+The candidates of the one engine of the next measurement (:func:`~.identifiability.weigh`,
+which the diagnosis' sentences and :func:`~skin_indent.diagnosis.planning.plan` read;
+the other parts: :mod:`~.prediction`, the forces fitted models predict for them,
+:mod:`~.separation`, how far two explanations lie apart over them, and
+:mod:`~.information`, what they would determine):
 
-- **Candidates** (:class:`Candidate`): the recorded history replayed as another
-  measurement would record it: a sphere of another radius to the same depths
-  (:func:`sphere`), an indentation deeper at the same speed (:func:`deeper`), a hold at
-  the deepest point after the recorded loading (:func:`hold`), the history at another
-  loading speed (:func:`speed`). A candidate's points are depths below its own contact
-  point (mm), at their times (s).
-- **Predictions**: every finite-element run of a prediction goes through
-  :func:`predicted_force` (the fitted model, its elastic core made by the finite-element
-  model, :class:`~skin_indent.models.fe_core.FECore`, evaluated on the candidate's points,
-  with its Jacobian on request), and the independent runs go to the workers together
-  (:func:`predict`).
-- **Separation** (:func:`separation`): how far the predicted curves of two explanations
-  lie apart, in noise units, over a candidate's points:
-
-  .. math::
-
-      D_\infty = \max_i |F_{b,i} - F_{a,i}| / \sigma, \qquad
-      S = \Big(\sum_i (F_{b,i} - F_{a,i})^2 / \sigma_i^2\Big)^{1/2},
-      \qquad \sigma_i^2 = \sigma^2 + \big(\varepsilon \tfrac{F_{a,i} + F_{b,i}}{2}\big)^2,
-
-  with :math:`\sigma` the noise of the recorded curve and :math:`\varepsilon` =
-  :data:`~skin_indent.fitting.error_model.MODEL_ERROR`, the error model of every fit
-  (:func:`~skin_indent.fitting.error_model.point_sigma`).
-  :math:`S^2` is how much the chi-square of one explanation rises over the candidate's
-  points if the other is true and neither is refitted: an upper bound of what a joint fit
-  of the recorded curves and the candidate would show (refitting absorbs part of it; a
-  linearised refit is no estimate of how much: on the forearm-like curve at R = 3.11 mm it
-  left S = 5.7 where a nonlinear refit of layer and stiffening to the curve of two layers
-  left 56).
-- **What a candidate would determine** (:func:`joint_std`): the standard deviations of
-  the parameters when the candidate is fitted together with what was recorded: the
-  information matrices of the curves summed (the shared parameters; each curve keeps its
-  own contact point where the fitted model fits one), with the priors' rows,
-  :math:`\mathrm{cov} = (\sum_k J_k^T W_k J_k + P^T P)^{-1}`.
+**Candidates** (:class:`Candidate`): the recorded history replayed as another
+measurement would record it: a sphere of another radius to the same depths
+(:func:`sphere`), an indentation deeper at the same speed (:func:`deeper`), a hold at
+the deepest point after the recorded loading (:func:`hold`), the history at another
+loading speed (:func:`speed`). A candidate's points are depths below its own contact
+point (mm), at their times (s).
 """
 
 from __future__ import annotations
@@ -48,16 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..effects import DEPTH, HISTORY, Model, instances
-from ..fitting.error_model import point_sigma
-from ..inverse.result import jacobian_covariance
+from ..effects import HISTORY, instances
 from ..measurement.preparation import MAX_DEPTH_RATIO
 from ..measurement.scale import Quantity, UnitText
-from ..models.joint import split_name
-from ..models import ComposedModel
-from ..models.fe_core import FECore
-from ..response_surface.run_cache import RunCache
-from ..runtime.executors import make_executor
 
 #: duration (s) of the hold a diagnosis weighs where an explanation acts along the time history
 HOLD_S = 30.0
@@ -67,7 +35,6 @@ HOLD_POINTS = 30
 DEEPER = 1.5
 
 
-# ----------------------------------------------------------------------------- candidates
 @dataclass(frozen=True, eq=False)
 class Candidate:
     """A measurement of the same sample, as its points would be recorded.
@@ -292,299 +259,3 @@ def speed(base, speed_mm_per_s: float) -> Candidate:
 def acts_in_time(effects) -> bool:
     """An effect of ``effects`` acts along the time history (a hold or another speed changes its force)."""
     return any(e.stage == HISTORY or e.needs_history for e in instances(effects))
-
-
-# ----------------------------------------------------------------------------- predictions
-def _widen(bounds, x) -> tuple:
-    lo, hi = (np.asarray(b, dtype=float) for b in bounds)
-    return np.minimum(lo, x), np.maximum(hi, x)
-
-
-def predicted_force(effects: tuple, theta: dict, history, mesh: str = "coarse", jacobian: bool = False,
-                    cache_dir=None) -> tuple:
-    """The force of a fitted model on the points of a measurement, by one finite-element run.
-
-    The one function through which every finite-element run of a planned measurement
-    goes (a worker task). The model is the fitted one (its effects act on the elastic
-    force as in the fit: :class:`~skin_indent.models.ComposedModel`) with the
-    finite-element model as its elastic core (:class:`~skin_indent.models.fe_core.FECore`:
-    one unit-modulus run to the deepest point, with direct-differentiation
-    sensitivities when the Jacobian is asked for, plus one run per parameter that moves
-    the geometry, such as a thickness).
-
-    Parameters
-    ----------
-    effects : tuple of str
-        The model's effects (those of the :data:`~skin_indent.effects.DEPTH` stage, a
-        contact point, included only with their parameter in ``theta``).
-    theta : dict
-        ``{fit coordinate: value}`` of every parameter of the model (``E_kPa``, ``nu``,
-        ``thickness_mm``, ``compliance``...: a fitted rung's ``fit_parameters``).
-    history : PreparedCurve
-        The points: depth (mm), time (s), kind, and the sphere radius (mm).
-    mesh : str
-        Mesh family member of the run.
-    jacobian : bool
-        Also return dF/dtheta.
-    cache_dir : path, optional
-        Where the run is read from or kept (the run cache,
-        :class:`~skin_indent.response_surface.RunCache`, of this cache folder; default
-        ``$SKIN_INDENT_CACHE`` or ``~/.cache/skin_indent``): the same prediction asked
-        again, by this diagnosis or a later one, solves nothing.
-
-    Returns
-    -------
-    force : ndarray (n,)
-        mN at the history's points.
-    J : ndarray (n, p) or None
-        dF/dtheta (mN per unit of each coordinate), None unless ``jacobian``.
-    names : tuple of str
-        The coordinates of the columns of ``J``, in order.
-
-    Raises
-    ------
-    ValueError
-        A run did not converge, or ``theta`` does not hold the model's parameters or puts one
-        outside its physical range (a negative stiffening...).
-    """
-    objs = instances(effects)
-    h = np.asarray(history.depth_mm, dtype=float)
-    E, nu = float(theta["E_kPa"]), float(theta["nu"])
-    core = FECore(objs, radius_mm=float(history.radius_mm), max_depth_mm=float(np.max(h)),
-                  e_star_kPa=E / (1.0 - nu**2), mesh=mesh, workers=1, run_cache=RunCache(cache_dir))
-    try:
-        try:
-            xc = np.array([float(theta[n]) for n in core.parameter_names])
-            core.bounds = _widen(core.bounds, xc)
-            model = ComposedModel(core, objs, history)
-            x = np.array([float(theta[n]) for n in model.parameter_names])
-        except KeyError as err:
-            raise ValueError(f"no value of {err.args[0]} for {'+'.join(('neo-hooke', *effects))}") from None
-        Model(tuple(e.name for e in objs), float(history.radius_mm)).check(model.model_parameters(x))  # in range
-        model.bounds = _widen(model.bounds, x)
-        if not jacobian:
-            core.prefetch([xc])  # the run without sensitivities: the force only
-        force = model.force(model.depth_mm, x)
-        J = model.jacobian(model.depth_mm, x) if jacobian else None
-    finally:
-        core.close()
-    if not np.all(np.isfinite(force)) or (J is not None and not np.all(np.isfinite(J))):
-        raise ValueError("the prediction is not finite")
-    return force, J, model.parameter_names
-
-
-def model_of(rung, *, jacobian: bool) -> tuple[tuple, dict]:
-    """``(effects, theta)`` of a fitted rung for :func:`predicted_force` on points given as depths
-    below their own contact point.
-
-    The force alone leaves the :data:`~skin_indent.effects.DEPTH` effects out (the points
-    are past contact already); with the Jacobian they stay, at 0, so that the points
-    carry their own contact-point column (each curve of a joint fit has its own).
-    """
-    objs = rung.bound_model.effects
-    names = tuple(e.name for e in objs if jacobian or e.stage != DEPTH)
-    # a fit of several curves holds each curve's own contact point (offset_mm[2]): not the model's
-    theta = {k: v for k, v in rung.fit_parameters.items() if split_name(k)[1] is None}
-    for e in objs:
-        if e.stage == DEPTH:
-            for k in e.fit_names:
-                theta[k] = 0.0
-    return names, theta
-
-
-def executor_options(context) -> dict:
-    """The keywords of :func:`~skin_indent.runtime.executors.make_executor` of a context (its
-    local workers, or its Dask client or scheduler)."""
-    if context is None:
-        return {}
-    if getattr(context, "client", None) is not None or getattr(context, "scheduler", None) is not None:
-        return {"client": context.client, "scheduler": context.scheduler}
-    return {"workers": context.workers}
-
-
-def predict(tasks: dict, *, context=None) -> dict:
-    """Run :func:`predicted_force` for every task at once, in the context's workers.
-
-    Parameters
-    ----------
-    tasks : dict
-        ``{tag: (effects, theta, history, mesh, jacobian)}``.
-    context : Context, optional
-        Where the runs go (its ``workers``, ``client`` or ``scheduler``; default the
-        available cores) and are kept (its ``cache_dir``'s run cache).
-
-    Returns
-    -------
-    dict
-        ``{tag: (force, J, names)}``, or ``{tag: exception}`` for a task whose run failed.
-    """
-    out = {}
-    if not tasks:
-        return out
-    cache_dir = getattr(context, "cache_dir", None)
-    work = [(tag, (*args, cache_dir)) for tag, args in tasks.items()]
-    with make_executor(tasks=len(tasks), **executor_options(context)) as executor:
-        for tag, value, error in executor.imap_unordered(predicted_force, work):
-            out[tag] = error if error is not None else value
-    return out
-
-
-# ----------------------------------------------------------------------------- separation
-def error_model(force, noise_mN: float) -> np.ndarray:
-    """sigma_i (mN) of predicted forces: the one error model of every fit,
-    :func:`~skin_indent.fitting.error_model.point_sigma` (the noise and the model error in quadrature)."""
-    return point_sigma(noise_mN, force)
-
-
-@dataclass(frozen=True)
-class Separation:
-    """How far the predicted curves of two explanations lie apart over a candidate's points.
-
-    Attributes
-    ----------
-    a, b : str
-        The two models (``a`` the diagnosis' choice).
-    max_difference_mN : float
-        The largest difference of the predicted curves, max abs(F_b - F_a) (mN).
-    max_difference_noise : float
-        The same over the noise.
-    separation : float
-        S = sqrt(sum (F_b - F_a)^2 / sigma_i^2), sigma_i the error model at (F_a + F_b) / 2.
-    points : int
-        Points of the candidate.
-    repeat : bool
-        The candidate is the recorded measurement made again: ``separation`` is what the recorded curve
-        already told apart (:func:`repeated`), not the predicted curves' difference.
-    """
-
-    a: str
-    b: str
-    max_difference_mN: float
-    max_difference_noise: float
-    separation: float
-    points: int
-    repeat: bool = False
-
-    def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
-
-
-def separation(a: str, b: str, fa, fb, noise_mN: float) -> Separation:
-    """:class:`Separation` of the predicted curves ``fa``, ``fb`` (mN) of the models ``a``, ``b``."""
-    fa, fb = np.asarray(fa, dtype=float), np.asarray(fb, dtype=float)
-    d = fb - fa
-    top = float(np.max(np.abs(d)))
-    s = float(np.sqrt(np.sum((d / point_sigma(noise_mN, 0.5 * (fa + fb))) ** 2)))
-    return Separation(a, b, top, top / noise_mN, s, int(d.size))
-
-
-def repeated(s: Separation, chi2_a: float, chi2_b: float, k_a: int, k_b: int) -> Separation:
-    """``s`` for the recorded measurement made again, whose curve the two explanations have already met.
-
-    Both models were fitted to the recorded curve, so their predicted curves differ there by what each
-    absorbed of it, and ``s.separation`` (the rise before refitting) overstates what a repeat would tell
-    apart. Fitted together with the recorded curve, a repeat leaves the values where they are and adds,
-    in expectation, the systematic part of the recorded chi-square gap: the gap
-    :math:`\chi^2_b - \chi^2_a` (``chi2_a``, ``chi2_b``: the two fits on the recorded curve) less what
-    the model with more fitted parameters gained by fitting the noise, one per parameter
-    (:math:`E[\chi^2] = n - k` at the truth; a new curve's noise is not the recorded one's). Its
-    separation is :math:`S = \sqrt{|\chi^2_b - \chi^2_a - (k_a - k_b)|}` (``k_a``, ``k_b``: the fitted
-    parameters).
-    """
-    gap = abs(float(chi2_b) - float(chi2_a) - (int(k_a) - int(k_b)))
-    return dataclasses.replace(s, separation=math.sqrt(gap) if math.isfinite(gap) else math.nan, repeat=True)
-
-
-# ----------------------------------------------------------------------------- information
-@dataclass(frozen=True)
-class Block:
-    """One curve's rows of a joint fit: its Jacobian and error model.
-
-    Attributes
-    ----------
-    J : ndarray (n, p)
-        dF/dtheta at the fitted values (mN per unit).
-    names : tuple of str
-        The coordinates of the columns.
-    sigma : ndarray (n,)
-        Standard deviation of each point (mN).
-    own : bool
-        The curve's :data:`~skin_indent.effects.DEPTH` coordinates (its contact point)
-        are its own, not the model's (every curve but the one the model was fitted to).
-    """
-
-    J: np.ndarray
-    names: tuple
-    sigma: np.ndarray
-    own: bool = True
-
-
-def _stack(rung, blocks, free) -> tuple[np.ndarray, list]:
-    """Whitened rows of ``blocks`` over the columns: the rung's ``free`` coordinates, then each block's
-    own depth coordinates; and the index (in the rung's vector) of each rung column."""
-    depth = {k for e in rung.bound_model.effects if e.stage == DEPTH for k in e.fit_names}
-    names = list(rung.bound_model.parameter_names)
-    joint = any(split_name(n)[1] is not None for n in names)  # fitted to several curves: offset_mm[2]...
-    if joint:  # every curve's contact point is its own column; the shared coordinates are the rung's
-        free = [i for i in free if split_name(names[i])[1] is None]
-    columns = [names[i] for i in free]
-    extra = []
-    for k, b in enumerate(blocks):
-        if b.own or joint:
-            extra += [(k, n) for n in b.names if n in depth and (joint or names.index(n) in free)]
-    width = len(columns) + len(extra)
-    rows = []
-    for k, b in enumerate(blocks):
-        R = np.zeros((b.J.shape[0], width))
-        for j, n in enumerate(b.names):
-            if (k, n) in extra:
-                R[:, len(columns) + extra.index((k, n))] = b.J[:, j]
-            elif n in columns:
-                R[:, columns.index(n)] = b.J[:, j]
-        rows.append(R / np.asarray(b.sigma, dtype=float)[:, None])
-    return np.vstack(rows), [names.index(n) for n in columns]
-
-
-def joint_std(rung, blocks, free, prior_terms=(), prior_rows=None) -> dict:
-    """Standard deviations of the reported parameters of ``rung`` fitted to every block together.
-
-    Parameters
-    ----------
-    rung : FitResult
-        The fitted model (``bound_model``, ``x``).
-    blocks : sequence of Block
-        The curves fitted together.
-    free : sequence of int
-        Indices of the rung's fit coordinates that are fitted (the others held).
-    prior_terms : sequence
-        The priors ``(g, mean, sd)`` on the model (:meth:`Fitter.prior_terms`).
-    prior_rows : callable, optional
-        :func:`skin_indent.fitting.knowledge.prior_rows`, needed with priors.
-
-    Returns
-    -------
-    dict
-        ``{reported parameter: standard deviation}`` from cov = (sum_k J_k^T W_k J_k + priors)^-1
-        (``inf`` where the information is rank deficient).
-    """
-    model, x = rung.bound_model, np.asarray(rung.x, dtype=float)
-    rows, index = _stack(rung, blocks, free)
-    if prior_terms:
-        lo, hi = model.bounds
-        P = np.zeros((len(prior_terms), rows.shape[1]))
-        P[:, :len(index)] = prior_rows(list(prior_terms), x, index, lo, hi)
-        rows = np.vstack([rows, P])
-    cov_all, _ = jacobian_covariance(rows)
-    cov = np.zeros((x.size, x.size))
-    cov[np.ix_(index, index)] = cov_all[: len(index), : len(index)]
-    return model.reported(x, cov)[1]
-
-
-def free_columns(rung) -> list[int]:
-    """Indices of the fit coordinates a rung's covariance treats as fitted: its free ones,
-    without those on a face of their range when its covariance with them free is not finite
-    (held there, as :meth:`~skin_indent.fitting.multistart.Fitter.fit` does)."""
-    names = list(rung.bound_model.parameter_names)
-    cov = getattr(rung, "covariance", None)
-    held = set() if cov is not None and np.all(np.isfinite(cov)) else set(getattr(rung, "at_bounds", ()))
-    return [names.index(n) for n in rung.free_names if n not in held and n in names]

@@ -19,7 +19,7 @@ standard deviation, the same functions weigh them. The statistics:
 1. **the separation of the explanations** over the candidate's points, in noise units:
    :math:`S = (\sum_i (F_{b,i} - F_{a,i})^2 / \sigma_i^2)^{1/2}` between the predicted
    curves of the diagnosis' choice :math:`a` and its closest rival :math:`b`
-   (:func:`~.measurements.separation`; :math:`\sigma_i` the error model of the fits), the
+   (:func:`~.separation.separation`; :math:`\sigma_i` the error model of the fits), the
    rise of the chi-square of one explanation if the other is true, before refitting. A
    diagnosis excludes a rival at a BIC gap of :data:`~.workflow.RIVAL`: a candidate with
    :math:`S^2` below it cannot separate them; above it, a joint fit (which refits both and

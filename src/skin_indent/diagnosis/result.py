@@ -9,40 +9,18 @@ and the figures are drawn from it by :mod:`skin_indent.report`.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-
-import numpy as np
 
 from ..effects import EFFECTS
 from ..measurement import PreparedCurve
 from ..measurement.scale import PACKAGE_UNITS, DisplayUnits, display_units, shown_in
-from ..fitting.bodies import bodies, body_lines
-from ..fitting.knowledge import DETERMINED_BY
+from ..fitting.bodies import bodies
 from ..fitting.result import FitResult
 from ..fitting.rung import MODEL_ERROR
 from ..runtime.json_io import jsonable
-from .criteria import FROM_FE, FROM_FIT, STRONG
+from .criteria import FROM_FIT
 from .segment_misfit import segments_sentence
-
-def _fmt_params(f: FitResult, units: DisplayUnits) -> str:
-    """A rung's parameters as the text of a diagnosis shows them, ``name = value +- sd``, in ``units``
-    (names and values as :meth:`~skin_indent.measurement.scale.DisplayUnits.name` and ``factor`` make
-    them: ``E_Pa = 203.9 +- 1.9`` at AFM scale for ``E_kPa = 0.2039 +- 0.0019``)."""
-    parts = []
-    for k, v in f.parameters.items():
-        s = f.std.get(k, math.nan)
-        name, c = units.name(k), units.factor(k)
-        if math.isinf(v):
-            parts.append(f"{name} = inf (rigid)")
-        else:
-            parts.append(f"{name} = {v * c:.4g}" + ("" if not math.isfinite(s) else f" +- {s * c:.2g}"))
-    return ", ".join(parts)
-
-
-def _listed(items) -> str:
-    items = list(items)
-    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+from .result_text import report_text, verdict_sentence
 
 
 # ----------------------------------------------------------------------------- result
@@ -232,19 +210,6 @@ class Diagnosis:
                 "max_depth_mm": c.max_depth_mm, "separation": a.separation if a.separations else None,
                 "std": {k: a.std[k] for k in self.not_determined if k in a.std}, "determines": list(a.determines)}
 
-    def _tested(self) -> str:
-        """``"of the vocabulary"``, or which effects were tested when the candidates were restricted."""
-        if self.candidates is None or set(EFFECTS) <= set(self.candidates):
-            return "of the vocabulary"
-        return f"tested ({', '.join(self.candidates) or 'no candidate was given'})"
-
-    def _untried_clause(self) -> str:
-        """``"not tried: a and b (why)[; c (why)]"`` (empty when everything was tried)."""
-        groups: dict = {}
-        for combo, why in self.untried.items():
-            groups.setdefault(why, []).append(combo)
-        return "; ".join(f"not tried: {_listed(combos)} ({why})" for why, combos in groups.items())
-
     def sentence(self, units: DisplayUnits | None = None) -> str:
         """The diagnosis in a few sentences: what is missing, whether the last rung explains the curve,
         what was not tried, and what the curve does not determine (with the standard deviations the
@@ -258,7 +223,7 @@ class Diagnosis:
             (:data:`~skin_indent.measurement.scale.PACKAGE_UNITS`).
         """
         u = self.units if units is None else units
-        text = self._verdict_sentence(u)
+        text = verdict_sentence(self, u)
         if self.instrument:
             text += (f" The instrument's effects ({self.instrument_verdict}) are in every model from "
                      f"{self.ladder[self.n_given].model} on; they are not the sample's.")
@@ -273,81 +238,6 @@ class Diagnosis:
         """Several curves of one sample were diagnosed together."""
         return len(self.curves) > 1
 
-    @property
-    def _these(self) -> str:
-        return f"these {len(self.curves)} curves" if self.joint else "this curve"
-
-    def _rms(self, f: FitResult, units: DisplayUnits, digits: int = 3) -> str:
-        """A rung's RMS as the sentences show it, in ``units.force`` (the unit is not written): each
-        curve's, in input order, for several."""
-        k = units.per_mN
-        if self.joint and len(f.curve_rms_mN) > 1:
-            return "(" + ", ".join(f"{v * k:.{digits}g}" for v in f.curve_rms_mN) + ")"
-        return f"{f.rms_mN * k:.{digits}g}"
-
-    def _noise(self, units: DisplayUnits, digits: int = 3) -> str:
-        """The noise as the sentences show it, in ``units.force`` (each curve's for several)."""
-        k = units.per_mN
-        if self.joint:
-            return "(" + ", ".join(f"{v * k:.{digits}g}" for v in self.noises_mN) + ")"
-        return f"{self.noise_mN * k:.{digits}g}"
-
-    def _verdict_sentence(self, u: DisplayUnits) -> str:
-        """The verdict in words, its numbers in the units ``u``."""
-        cur, base = self.current, self.ladder[self.n_given]
-        first = self.steps[0] if self.steps else None
-        untried = self._untried_clause()
-        structure, suggested = shown_in(cur.structure, u), shown_in(self.suggested_measurement, u)
-        F = u.force
-        provisional = f" The verdict is provisional: {untried}." if untried else ""
-        if not self.missing:
-            if self.verdict == "ambiguous" and first is not None:
-                effects = [first.ranking[0].effects[-1]] + [f.effects[-1] for f in first.rivals]
-                return (f"The {cur.model} model fails ({structure}); {' and '.join(effects)} explain it "
-                        f"about equally well: {suggested}" + provisional)
-            if self.verdict not in ("none", "unexplained") and first is not None:  # named, not added (max_rungs = 0)
-                top = first.ranking[0]
-                return (f"The {cur.model} model fails ({structure}); the missing effect is {self.verdict}: "
-                        f"adding it lowers the RMS from {self._rms(cur, u)} to {self._rms(top, u)} {F} (noise "
-                        f"{self._noise(u)} {F}) and the BIC by {first.rung.bic - top.bic:.1f}." + provisional)
-            if self.explained:
-                return (f"The {cur.model} model explains {self._these} to the noise level ({self._rms(cur, u)} {F} RMS "
-                        f"against {self._noise(u)} {F} noise): no missing effect is needed." + provisional)
-            text = (f"The {cur.model} model does not explain {self._these} ({self._rms(cur, u)} {F} RMS against "
-                    f"{self._noise(u)} {F} noise; {structure})")
-            if untried:
-                return (text + f"; of the effects fitted, none lowers the BIC by more than {STRONG:g}, and the verdict "
-                        f"is provisional: {untried}.")
-            outside = ("outside the vocabulary" if self._tested() == "of the vocabulary"
-                       else "not among the effects tested")
-            return (text + f", and no effect {self._tested()} lowers the BIC by more than {STRONG:g}: what is "
-                    f"missing is {outside}.")
-        rms = " -> ".join(self._rms(f, u) for f in self.ladder[self.n_given:])
-        what = " and ".join(_plural(self.missing))
-        text = f"What the {base.model} model misses: {what} (RMS {rms} {F} against {self._noise(u)} {F} noise)"
-        if self.explained:
-            text += f"; the {cur.model} model explains {'the curve' if not self.joint else 'every curve'} to the noise."
-        elif untried and not any(s.rung.effects == cur.effects for s in self.steps):  # stopped at max_rungs
-            text += (f"; the {cur.model} model still leaves a structured residual ({structure}) and was not "
-                     f"examined further, so the verdict is provisional: {untried}.")
-            untried = ""
-        elif untried:
-            text += (f"; the {cur.model} model still leaves a structured residual ({structure}); of the effects "
-                     f"fitted on top of it, none lowers the BIC by more than {STRONG:g}, and the verdict is "
-                     f"provisional: {untried}.")
-            untried = ""
-        else:
-            text += (f"; the {cur.model} model still leaves a structured residual ({structure}) and no further "
-                     f"effect {self._tested()} lowers the BIC by more than {STRONG:g}.")
-        if self.verdict == "ambiguous" or len(self.confounded_with) > 1:
-            others = self.confounded_with[1:]
-            text += (f" {' or '.join(others).capitalize()} explains it "
-                     f"{'about equally well' if self.verdict == 'ambiguous' else 'nearly as well'}: "
-                     f"{suggested}.")
-        if untried:
-            text += f" The verdict is provisional: {untried}."
-        return text
-
     def report(self, units: DisplayUnits | None = None) -> str:
         """The diagnosis as text (what ``skin-indent diagnose`` prints).
 
@@ -360,91 +250,7 @@ class Diagnosis:
             the structure of the residuals and the suggested measurement are written in them too
             (:func:`~skin_indent.measurement.scale.shown_in`).
         """
-        u = self.units if units is None else units
-        F = u.force
-        curves = self.curves or [self.data]
-        noises = self.noises_mN or [self.noise_mN]
-        sources = self.noise_sources or [self.noise_source]
-        lines = [f"{len(curves)} curves of one sample, diagnosed together (the material shared, each curve its own "
-                 "sphere, contact point and noise):"] if self.joint else []
-        for k, (d, noise, source) in enumerate(zip(curves, noises, sources)):
-            head = f"curve {k + 1}: " if self.joint else "data: "
-            lines.append(f"{head}{d.source} ({d.n} points" + (f", bins of {d.binned}" if d.binned > 1 else "") + "; "
-                         + ", ".join(f"{kind} {np.count_nonzero(d.kind == kind)}"
-                                     for kind in ("approach", "hold", "retract") if np.any(d.kind == kind))
-                         + f"), sphere R = {d.radius_mm * u.per_mm:g} {u.length}")
-            if self.joint:
-                lines.append(f"  noise: {noise * u.per_mN:.4g} {F}, {source}")
-            if d.baseline is not None:
-                lines.append(f"{'  ' if self.joint else ''}baseline force subtracted: {d.baseline_mN * u.per_mN:.4g} "
-                             f"{F} at the contact point (pre-contact part)")
-            lines += [f"{'  ' if self.joint else ''}note: {shown_in(n, u)}" for n in d.notes]
-        errors = (f"model error {100 * MODEL_ERROR:g}% of the force added in quadrature; effective sample size "
-                  f"{self.n_effective:.1f} (every BIC below")
-        if self.joint:
-            lines.append(errors + ", all curves together)")
-        else:
-            lines.insert(1, f"noise: {self.noise_mN * u.per_mN:.4g} {F}, {self.noise_source}; {errors})")
-        lines.append("ladder:" + (" (RMS of each curve, in input order)" if self.joint else ""))
-        for f in self.ladder:
-            how = f", finite elements in the loop ({f.forward_runs} runs)" if f.forward_runs else ""
-            lines.append(f"  {f.model:<28} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
-                         f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}{how}")
-            lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]  # how its fit ended (fitting.ended)
-        for f in self.alternatives:
-            lines.append(f"  (other explanation) {f.model:<20} RMS {self._rms(f, u, 4)} {F}  BIC {f.bic:9.1f}  "
-                         f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
-            lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]
-        for name, k in self.current.priors.items():
-            c = u.factor(name)
-            lines.append(f"  what you know, {u.name(name)}: prior {k['prior_mean'] * c:.4g} +- "
-                         f"{k['prior_sd'] * c:.2g}, with the data {k['posterior'] * c:.4g} +- "
-                         f"{k['posterior_sd'] * c:.2g} ({DETERMINED_BY[k['determined_by']]})"
-                         + (f"; IN TENSION with the data ({k['tension_sd']:.1f} combined sd apart)"
-                            if k["in_tension"] else ""))
-        for name, v in self.fixed.items():
-            if name in self.current.parameters:
-                lines.append(f"  what you know, {u.name(name)}: held at {v * u.factor(name):g}")
-        fe = [u.name(k) for k, v in self.std_source.items() if v == FROM_FE]
-        if fe:
-            lines.append(f"  standard deviations of {_listed(fe)} ({self.current.model}): {FROM_FE} at the fitted "
-                         "values (the others: the fit's covariance)")
-        for i, step in enumerate(self.steps):
-            lines.append(f"where {step.rung.model} fails: {shown_in(step.rung.structure, u)}")
-            lines.append("candidates (delta BIC > 0: better than that model):")
-            for f in step.ranking:
-                lines.append(f"  +{f.effects[-1]:<13} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
-                             f"{'white' if f.white else 'structured'}  {_fmt_params(f, u)}")
-                lines += [f"    flag: {shown_in(t, u)}" for t in f.flags]
-            for k, v in step.not_detectable.items():
-                if v.startswith("not fitted"):
-                    lines.append(f"  +{k:<13} {shown_in(v, u)}")
-                elif i == 0:  # what the data cannot show does not change up the ladder
-                    lines.append(f"  {k:<14} not detectable here: {shown_in(v, u)}")
-        for step in self.instrument_steps:
-            lines.append(f"the instrument, on top of {step.rung.model} (delta BIC > 0: better than that model):")
-            for f in step.ranking:
-                added = "+".join(f.effects[len(step.rung.effects):])
-                lines.append(f"  +{added:<26} dBIC {step.rung.bic - f.bic:8.1f}  RMS {self._rms(f, u, 4)} {F}  "
-                             f"{'white' if f.white else 'structured'}")
-            for k, v in step.not_detectable.items():
-                how = "not named" if "+" in k or "physical range" in v or v.startswith("not fitted") else \
-                    "not detectable here"
-                lines.append(f"  {k:<14} {how}: {shown_in(v, u)}")
-        if self.segments:
-            lines.append(f"per segment, {self.current.model}:")
-        for m in self.segments:
-            lines.append(f"  segment {('curve %d ' % (m.curve + 1)) if self.joint else ''}{m.kind:<8} "
-                         f"RMS {m.rms_mN * u.per_mN:.4g} {F} = {m.ratio:.3g}x the noise, "
-                         f"{'white' if m.white else 'structured'}{'' if not m.explained else ' (explained)'}")
-        lines.append(f"verdict: {self.verdict}" + (" (provisional)" if self.provisional else ""))
-        lines.append(self.verdicts())
-        if self.provisional:
-            lines.append(f"provisional: {self._untried_clause()}")
-        lines += body_lines(self.current, u)  # the final model: E of each body, thicknesses (fitting.bodies)
-        lines.append(self.sentence(u))
-        lines += [f"note: {shown_in(n, u)}" for n in self.notes]
-        return "\n".join(lines)
+        return report_text(self, self.units if units is None else units)
 
     def to_dict(self) -> dict:
         """The diagnosis as JSON-safe data (what ``skin-indent diagnose --json`` prints).
@@ -529,14 +335,6 @@ class Diagnosis:
             "notes": list(self.notes),
             "provenance": dict(self.provenance),
         })
-
-
-def _plural(effects) -> list[str]:
-    """``("layer", "layer", "offset")`` -> ``["2 layers", "offset"]``, in order of first appearance."""
-    counts: dict = {}
-    for e in effects:
-        counts[e] = counts.get(e, 0) + 1
-    return [f"{n} {e}s" if n > 1 else e for e, n in counts.items()]
 
 
 @dataclass

@@ -3,7 +3,7 @@
 One physics, the work of adhesion w (mJ/m^2 = 1e-3 mN/mm), in two forms:
 
 - forward, the finite-element traction-gap law of
-  :class:`~skin_indent.mechanics.contact.ContactLaw` with range :data:`RANGE_MM`;
+  :class:`~skin_indent.mechanics.contact_law.ContactLaw` with range :data:`RANGE_MM`;
 - fitted, its Derjaguin-Muller-Toporov limit: the force is lowered by 2 pi w R while
   the sphere is below the contact point. DMT is the limit of that law for a small
   Tabor parameter (R w^2 / (E*^2 z0^3))^(1/3) < ~0.3 (skin, R = 6 mm, w ~ 1 mJ/m^2,
@@ -19,7 +19,7 @@ import numpy as np
 
 from .base import FORCE, Effect, EffectParameter, Evaluation, ForwardSpec
 
-#: range of the adhesive traction law, mm (see :class:`~skin_indent.mechanics.contact.ContactLaw`)
+#: range of the adhesive traction law, mm (see :class:`~skin_indent.mechanics.contact_law.ContactLaw`)
 RANGE_MM = 0.06
 
 

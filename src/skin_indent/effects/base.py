@@ -127,7 +127,7 @@ class ForwardSpec:
         Modulus of the half-space below the layers relative to the top material
         (``inf``: a rigid base).
     contact : dict
-        Keywords of :class:`~skin_indent.mechanics.contact.ContactLaw`.
+        Keywords of :class:`~skin_indent.mechanics.contact_law.ContactLaw`.
     offset_mm : float
         Recorded depth at which contact begins.
     instantaneous : float

@@ -1,6 +1,6 @@
 """``friction``: Coulomb friction between sphere and skin (regularised penalty, stick and slip), ``mu``.
 
-Forward: the finite-element contact law (:class:`~skin_indent.mechanics.contact.ContactLaw`),
+Forward: the finite-element contact law (:class:`~skin_indent.mechanics.contact_law.ContactLaw`),
 history dependent. Not fitted: diagnosis weighs it (:meth:`Friction.weigh`) by two
 coarse finite-element runs at the best fit's nu, frictionless and at full stick,
 against what refitting E and nu absorbs.
@@ -30,7 +30,7 @@ DETECTABLE = 10.0
 @functools.lru_cache(maxsize=32)
 def _full_stick_runs(nu: float, depth_mm: float, radius_mm: float) -> tuple[np.ndarray, np.ndarray]:
     from ..simulate import simulate
-    from ..mechanics.contact import ContactLaw, SphericalIndenter
+    from ..mechanics.contact_law import ContactLaw, SphericalIndenter
     from ..mechanics.materials import NeoHooke
 
     ramp = Protocol.ramp(depth_mm, 24)

@@ -74,7 +74,7 @@ class Model:
     radius_mm: float = 6.22
 
     def __post_init__(self):
-        from ..mechanics.contact import SphericalIndenter
+        from ..mechanics.contact_law import SphericalIndenter
 
         names = tuple(e.name for e in instances(self.effects))
         check_kinds(names)  # one relaxation law (viscoelastic or viscoelastic_powerlaw)
@@ -147,8 +147,9 @@ class Model:
         return self.spec(theta).sample()
 
     def contact(self, theta: dict):
-        """The :class:`~skin_indent.mechanics.contact.ContactLaw` of ``theta`` (frictionless, non-adhesive by default)."""
-        from ..mechanics.contact import ContactLaw
+        """The :class:`~skin_indent.mechanics.contact_law.ContactLaw` of ``theta`` (frictionless, non-adhesive by
+        default)."""
+        from ..mechanics.contact_law import ContactLaw
 
         return ContactLaw(**self.spec(theta).contact)
 
@@ -158,7 +159,7 @@ class Model:
         History-dependent parameters (viscoelastic, friction) need ``protocol``; the
         offset is applied to the recorded depths.
         """
-        from ..mechanics.contact import ContactLaw, SphericalIndenter
+        from ..mechanics.contact_law import ContactLaw, SphericalIndenter
         from ..simulate import simulate
 
         spec = self.spec(theta)

@@ -17,7 +17,8 @@ returns an :class:`IdentificationResult`.
 
 from ._problem import ForceModel
 from .identifiability import HertzEquivalence, Profile, hertz_equivalence, profile
-from .kalman import PAPER_MEASUREMENT_STD_MN, PAPER_P0_STD, fit_ekf, fit_ekf_paper
+from .kalman import fit_ekf
+from .kalman_paper import PAPER_MEASUREMENT_STD_MN, PAPER_P0_STD, fit_ekf_paper
 from .least_squares import fit_least_squares
 from .noise import estimate_noise
 from .parameters import Parameter, ParameterSet

@@ -28,7 +28,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from .kalman import fit_ekf, fit_ekf_paper
+from .kalman import fit_ekf
+from .kalman_paper import fit_ekf_paper
 from .least_squares import fit_least_squares
 
 __all__ = ["PAPER_TABLE_1", "PAPER_TABLE_2", "blind_test_cases", "run_blind_tests", "format_table", "main"]

@@ -2,8 +2,9 @@
 solid, sphere contact, incremental Newton solver and field output.
 
 Reading order: :mod:`.mesh` -> :mod:`.materials` -> :mod:`.weakform` (the maths in
-scikit-fem forms) -> :mod:`.axisymmetric` (the same, fast) -> :mod:`.contact` ->
-:mod:`.predictor` / :mod:`.linear` -> :mod:`.solver` -> :mod:`.fields`.
+scikit-fem forms) -> :mod:`.axisymmetric` (the same, fast) -> :mod:`.contact_law` (the sphere
+and its interface law) -> :mod:`.contact` -> :mod:`.predictor` / :mod:`.linear` ->
+:mod:`.solver` -> :mod:`.fields`.
 
 Beside them: :mod:`.protocol`, the depth history of a test against time, and
 :mod:`.analytic`, the closed-form solutions the forward model is checked against (Hertz,
@@ -13,7 +14,7 @@ Sneddon, Ting, Dimitriadis).
 # Exports are loaded on first use: the materials and the sphere need no scikit-fem, so a
 # command that only describes them starts fast.
 _EXPORTS = {
-    "ContactLaw": ".contact", "SphereContact": ".contact", "SphericalIndenter": ".contact",
+    "ContactLaw": ".contact_law", "SphereContact": ".contact", "SphericalIndenter": ".contact_law",
     "LinearElastic": ".materials", "Material": ".materials", "NeoHooke": ".materials",
     "NeoHookeStiffening": ".materials", "PronyTerm": ".materials", "Viscoelastic": ".materials",
     "DEFAULT_MESH": ".mesh", "MESH_FAMILY": ".mesh", "IndentationMesh": ".mesh", "MeshDesign": ".mesh",

@@ -39,7 +39,8 @@ import time
 import numpy as np
 
 from .axisymmetric import AxisymmetricSolid, SparsityPattern
-from .contact import ContactLaw, SphereContact, SphericalIndenter
+from .contact import SphereContact
+from .contact_law import ContactLaw, SphericalIndenter
 from .convergence import ConvergenceError, NewtonReport, newton_converged, roundoff_floor
 from .layers import SQUEEZE_FROM, ConfinedPenalty, LayeredSample
 from .linear import FrictionalTangentSolver, TangentSolver

@@ -42,7 +42,7 @@ What keeps it cheap and smooth:
 - **Secant updates of the differenced columns.** Within a fit's iterations
   (:meth:`FECore.iterating`, entered by :func:`~skin_indent.inverse.fit_least_squares`) a
   thickness column is carried from one Jacobian to the next by a Broyden update and made
-  afresh by runs only every :data:`SECANT_REFRESH` Jacobians; the covariance after the
+  afresh by runs only every :data:`~.fe_jacobian.SECANT_REFRESH` Jacobians; the covariance after the
   fit uses exact differences. Measured on the forearm-like two-layer fit below: 77 -> 53
   runs, 62.6 -> 54-60 s (the differenced runs were made two at a time; the serial runs of
   the evaluations, ~2 s each, are most of a fit).
@@ -64,14 +64,14 @@ import numpy as np
 from ..effects import ELASTIC, ForwardSpec, instances, model_name
 from ..effects.base import stack_parameters
 from ..response_surface import nice_depth
-from .fe_runs import FIRST, INCREMENTS, geometry, material_parameters
+from .fe_jacobian import RELATIVE_STEP
+from .fe_jacobian import jacobian as fe_jacobian
+from .fe_runs import FIRST, INCREMENTS
 from .fe_scheduler import Run, RunScheduler
 
 #: Newton tolerance of the runs in the loop: finite differences of relative step
-#: :data:`RELATIVE_STEP` need forces converged far below the step
+#: :data:`~.fe_jacobian.RELATIVE_STEP` need forces converged far below the step
 RTOL = 1e-8
-#: relative step of the one-sided finite differences in the core parameters
-RELATIVE_STEP = 1e-4
 #: solved depths of the runs within the iterations of a fit (:meth:`FECore.iterating`); the
 #: fit's result (force, Jacobian, covariance) comes from a run of :data:`INCREMENTS` at its
 #: end. Against runs of 40 on the coarse mesh (100 depths to 0.6 mm; one layer, two layers,
@@ -93,9 +93,6 @@ NU_RANGE = (0.2, 0.499)
 #: 24 starts of layer+layer and of layer+stiffening rank with the same four first (three are
 #: kept) as with the 12 depths, at 0.75x the time
 SCREEN_INCREMENTS, SCREEN_RTOL, SCREEN_FIRST = 8, 1e-5, 0.05
-#: within a fit (:meth:`FECore.iterating`), the differenced columns (thicknesses) of a Jacobian
-#: are recomputed by runs every this many Jacobians and carried by secant updates in between
-SECANT_REFRESH = 3
 #: a layer's compliance (its modulus / the modulus below it) under which the base below is not
 #: solved: between a rigid base (compliance below 1e-6, the layer's own rule) and this one the force
 #: is linear in the compliance, from the rigid base's run to this one's (:meth:`FECore.force`). Runs of
@@ -356,7 +353,7 @@ class FECore:
         """Within the block (the iterations of a fit), runs solve :data:`FIT_INCREMENTS` depths
         and the finite-difference columns of :meth:`jacobian` are carried from one Jacobian to
         the next by secant (Broyden) updates, recomputed by fresh runs only every
-        :data:`SECANT_REFRESH` Jacobians; outside it (the fit's result, a covariance, a
+        :data:`~.fe_jacobian.SECANT_REFRESH` Jacobians; outside it (the fit's result, a covariance, a
         suggestion) runs solve :data:`INCREMENTS` depths and every Jacobian is exact."""
         self._secant, self._last = True, None
         try:
@@ -374,84 +371,9 @@ class FECore:
         where it moves the geometry (a thickness) or changes the set of materials (a rigid base).
         Only the ``columns`` asked for are computed (default all; the others are 0): a fit
         makes no runs for the parameters it holds. Within :meth:`iterating`, the differenced
-        columns are secant updates between fresh differences.
+        columns are secant updates between fresh differences (:mod:`.fe_jacobian`).
         """
-        from ..simulate import not_a_knot_spline
-
-        theta = self._check(theta)
-        h = np.asarray(depth_mm, dtype=float)
-        stiff = self._stiff(theta)
-        if stiff is not None:
-            return self._stiff_jacobian(h, theta, columns, *stiff)
-        lo, hi = self.bounds
-        rest = theta[1:]
-        self._run([rest], sensitivities=True)
-        h_s, F_s, S = self._curves[self._key(rest)]
-        sample0 = self.spec(rest).sample(merge=False)
-        p0 = material_parameters(sample0)
-        geometry0 = geometry(sample0)
-        wanted = set(range(1, theta.size)) if columns is None else {int(i) for i in np.arange(theta.size)[columns]}
-        # unit-force derivatives (mN/kPa per unit) at the solved depths: by the chain rule, or numeric
-        D = np.zeros((h_s.size, theta.size))
-        numeric, faces = [], []
-        for i in sorted(wanted - {0}):
-            step = RELATIVE_STEP * max(abs(theta[i]), 1e-2 * (hi[i] - lo[i]))
-            t = theta.copy()
-            t[i] = theta[i] + step if theta[i] + step <= hi[i] else theta[i] - step
-            tiny = theta.copy()
-            tiny[i] = theta[i] + 1e-3 * (t[i] - theta[i])
-            sample1 = self.spec(tiny[1:]).sample(merge=False)
-            p1 = material_parameters(sample1)
-            if S is not None and geometry(sample1) == geometry0 and p1.keys() == p0.keys():
-                if p1 == p0 and self.spec(t[1:]).sample(merge=False) != sample0:
-                    # a face where the probe changes nothing and the step changes the body (a compliance
-                    # of 0, a rigid base, stays rigid below 1e-6): the slope on the side of the step
-                    faces.append(i)
-                    continue
-                dd = tiny[i] - theta[i]
-                D[:, i] = sum((S[k] * (p1[k] - p0[k]) / dd for k in p0 if p1[k] != p0[k]), np.zeros_like(F_s))
-            else:
-                numeric.append((i, t))
-        if faces:
-            self._face_columns(theta, faces, D, h_s)
-        columns_n = [i for i, _ in numeric]
-        last = self._last
-        if (numeric and self._secant and last is not None and last["numeric"] == columns_n
-                and last["age"] < SECANT_REFRESH and np.array_equal(last["h"], h_s)):
-            # Broyden: the change of the unit curve not explained by the exact columns (trapezoid
-            # of the old and new ones) updates the differenced block along the step
-            dr = rest - last["rest"]
-            exact = [i for i in range(1, theta.size) if i not in columns_n]
-            y = F_s - last["F"] - 0.5 * (D[:, exact] + last["D"][:, exact]) @ dr[np.array(exact, dtype=int) - 1]
-            block = last["D"][:, columns_n]
-            s = dr[np.array(columns_n) - 1]
-            if float(s @ s) > 0:
-                block = block + np.outer(y - block @ s, s) / float(s @ s)
-            D[:, columns_n] = block
-            age = last["age"] + 1
-        else:
-            if numeric:
-                self._run([t[1:] for _, t in numeric])
-                for i, t in numeric:
-                    # on the depths solved here: a rigid base's run solves depths near it, which move
-                    # with a thickness (measured: a layer 1.5 mm on a rigid base, the column at 0.6 mm
-                    # +41.7 from the runs' forces at different depths, -65.4 on one set of depths)
-                    h_t, F_t, _ = self._curves[self._key(t[1:])]
-                    if not np.array_equal(h_t, h_s):
-                        F_t = not_a_knot_spline(h_t, F_t / h_t**1.5, h_s) * h_s**1.5
-                    D[:, i] = (F_t - F_s) / (t[i] - theta[i])
-            age = 0
-        if self._secant:
-            self._last = {"rest": rest.copy(), "h": h_s, "F": F_s, "D": D, "numeric": columns_n, "age": age}
-
-        def spline(values):
-            return not_a_knot_spline(h_s, values / h_s**1.5, h) * h**1.5
-
-        J = np.zeros((h.size, theta.size))
-        J[:, 0] = spline(F_s)  # dF/dE: the unit force
-        for i in wanted - {0}:
-            J[:, i] = theta[0] * spline(D[:, i])
-        return J
+        return fe_jacobian(self, depth_mm, theta, columns)
 
     def _stiff_jacobian(self, h, theta, columns, i: int, rigid, stiff, w: float) -> np.ndarray:
         """The Jacobian where the compliance ``theta[i]`` lies in its stiff-base range (:meth:`_stiff`):
@@ -466,37 +388,6 @@ class FECore:
         if i in cols:
             J[:, i] = (self.force(h, stiff) - self.force(h, rigid)) / STIFF_BASE
         return J
-
-    def _face_columns(self, theta, faces: list, D, h_s) -> None:
-        """The columns ``faces`` of ``D`` (unit-force derivatives at the solved depths) where ``theta``
-        stands on a face of the range that changes the body once left: a layer's compliance at 0 (a
-        rigid base, whose mesh has no material below). There the run's own sensitivities have no
-        base to differentiate (the column would be 0 and a fit could never leave a rigid base), and
-        a difference across the rigid and the finite-base meshes measures their discretisation: the
-        slope is taken by direct differentiation of a run at 1% of the range inside the face (a base
-        12.5 times stiffer than the layer for a compliance in [0, 8]; the force is nearly linear in
-        the compliance there, as for springs in series), interpolated to the depths ``h_s`` solved
-        at ``theta``."""
-        from ..simulate import not_a_knot_spline
-
-        lo, hi = self.bounds
-        inside = []
-        for i in faces:
-            t = theta.copy()
-            t[i] = theta[i] + 1e-2 * (hi[i] - lo[i]) * (1.0 if theta[i] - lo[i] <= hi[i] - theta[i] else -1.0)
-            inside.append((i, t))
-        self._run([t[1:] for _, t in inside], sensitivities=True)
-        for i, t in inside:
-            h_t, _, S = self._curves[self._key(t[1:])]
-            if S is None:
-                continue
-            tiny = t.copy()
-            tiny[i] = t[i] + 1e-3 * (t[i] - theta[i])
-            p0 = material_parameters(self.spec(t[1:]).sample(merge=False))
-            p1 = material_parameters(self.spec(tiny[1:]).sample(merge=False))
-            dd = tiny[i] - t[i]
-            slope = sum((S[k] * (p1[k] - p0[k]) / dd for k in p0 if k in p1 and p1[k] != p0[k]), np.zeros(h_t.size))
-            D[:, i] = not_a_knot_spline(h_t, slope / h_t**1.5, h_s) * h_s**1.5
 
     def close(self) -> None:
         """Stop the worker processes."""

@@ -44,7 +44,7 @@ def solve_unit(sample, radius_mm: float, ceiling_mm: float, imesh, rtol: float, 
     :mod:`skin_indent.mechanics.sensitivity`, else None), and the converged displacement
     field at every solved depth (the warm start of a run nearby).
     """
-    from ..mechanics.contact import SphericalIndenter
+    from ..mechanics.contact_law import SphericalIndenter
     from ..simulate import simulate
 
     depths = solved_depths(sample, ceiling_mm, increments, first)

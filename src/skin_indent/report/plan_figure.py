@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..diagnosis.identifiability import DETERMINED
-from ..diagnosis.measurements import error_model
+from ..diagnosis.separation import error_model
 from ..diagnosis.planning import BEST
 from ..runtime.atomic import atomic_write
 from ..runtime.provenance import provenance_comment_lines

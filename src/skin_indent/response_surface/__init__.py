@@ -84,7 +84,8 @@ from ._runs import Job, make_runs
 from ._store import RunStore
 from .run_cache import RunCache, RunFailed
 from ._core import SurfaceCore
-from ._surface import DEPTH_INTERPS, METHODS, SCALINGS, NodeForces, ResponseSurface
+from ._interpolation import DEPTH_INTERPS, METHODS, SCALINGS, NodeForces
+from ._surface import ResponseSurface
 
 __all__ = [
     "resolve_model", "run_key", "run_task", "expected_code_of", "Job", "make_runs",
