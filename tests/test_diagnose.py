@@ -433,7 +433,7 @@ def test_the_standard_deviation_that_decides_is_the_one_reported(hidden, cache, 
     of the last rung everywhere (ladder, sentence, JSON, HTML), and reading the result makes no
     finite-element run."""
     from skin_indent.diagnosis import workflow
-    from skin_indent.diagnosis.identifiability import Outlook
+    from skin_indent.diagnosis.outlook import Outlook
 
     calls, fits = [], []
 

@@ -21,7 +21,8 @@ import skin_indent as si
 from skin_indent.cli import main
 from skin_indent.diagnosis import diagnose
 from skin_indent.diagnosis.evidence import sentence as separation_sentence
-from skin_indent.diagnosis.identifiability import Assessment, Outlook, candidates, suggestion
+from skin_indent.diagnosis.identifiability import candidates, suggestion
+from skin_indent.diagnosis.outlook import Assessment, Outlook
 from skin_indent.diagnosis.measurements import base_history
 from skin_indent.diagnosis.separation import Separation
 from skin_indent.measurement import load_csv

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from skin_indent.diagnosis import identifiability as idf
+from skin_indent.diagnosis.outlook import DETERMINED, Assessment, Outlook
 from skin_indent.diagnosis.information import Block, free_columns, joint_std
 from skin_indent.diagnosis.measurements import recorded_history
 from skin_indent.diagnosis.prediction import predicted_force
@@ -104,8 +105,8 @@ def test_a_deeper_indentation_determines_a_layer_thickness():
     deeper = next(a for a in outlook.ranking if a.candidate.kind == "deeper")
     same = next(a for a in outlook.ranking if a.candidate.reference)
     assert deeper.error is None, deeper.error
-    assert outlook.recorded_std["thickness_mm"] > idf.DETERMINED * t  # measured 1.25 mm
-    assert deeper.std["thickness_mm"] < idf.DETERMINED * t and deeper.std["thickness_mm"] < same.std["thickness_mm"]
+    assert outlook.recorded_std["thickness_mm"] > DETERMINED * t  # measured 1.25 mm
+    assert deeper.std["thickness_mm"] < DETERMINED * t and deeper.std["thickness_mm"] < same.std["thickness_mm"]
     assert same.std["thickness_mm"] == pytest.approx(outlook.recorded_std["thickness_mm"] / math.sqrt(2), rel=1e-6)
     assert outlook.next is deeper and deeper.determines == ["thickness_mm"], [(a.candidate.label, a.std)
                                                                                for a in outlook.ranking]
@@ -228,11 +229,11 @@ def test_suggestion_names_the_next_measurement_or_the_smallest_determining_sd():
     from skin_indent.diagnosis.measurements import Candidate
 
     def a(kind, label, sd, sep=None, reference=False):
-        return idf.Assessment(Candidate(kind, label, None, 1.0, reference), std={} if sd is None else {"t": sd},
+        return Assessment(Candidate(kind, label, None, 1.0, reference), std={} if sd is None else {"t": sd},
                               error=None if sd is not None else "failed")
 
     def outlook(*assessments):
-        return idf.Outlook(["m"], "m", {"t": 5.0}, 0.05, list(assessments))
+        return Outlook(["m"], "m", {"t": 5.0}, 0.05, list(assessments))
 
     # the next measurement (ranked first) determines it: named, though another would do better
     assert idf.suggestion("t", 4.0, outlook(a("sphere", "<half>", 1.5), a("deeper", "<deeper>", 0.6))) \

@@ -4,7 +4,7 @@ The diagnosis' identifiability sentences ("thickness_mm = 1.11 +- 0.9: not deter
 curve; ... would determine it to +- ..."), its "would separate them" sentence
 (:func:`~.evidence.suggest_measurement`) and :func:`~.planning.plan` read ONE computation,
 :func:`weigh`, on ONE candidate set (:func:`candidates`), ranked by ONE rule (:func:`rank`):
-they cannot disagree. A :func:`~.workflow.diagnose` keeps its outcome (an :class:`Outlook`,
+they cannot disagree. A :func:`~.workflow.diagnose` keeps its outcome (an :class:`~.outlook.Outlook`,
 plain data) and :func:`~.planning.plan` with its default settings reads it back.
 
 **The candidates** (:mod:`.measurements`): the recorded history replayed as another
@@ -35,10 +35,10 @@ noise and :math:`\varepsilon` = :data:`~skin_indent.fitting.error_model.MODEL_ER
 alone would overstate what it leaves undetermined: its correlations differ from the recorded
 curve's, and fitted together the two break each other's (on the forearm-like curve a sphere of
 twice the radius alone leaves the thickness at +- 0.28 mm, fitted with the recorded curve at
-+- 0.06 mm). The recorded curves alone give :attr:`Outlook.recorded_std`, the standard
++- 0.06 mm). The recorded curves alone give :attr:`~.outlook.Outlook.recorded_std`, the standard
 deviations the diagnosis reports for the parameters its fit leaves loose (a response surface's
 interpolated slopes can inflate the fit's). A parameter is *determined* when its standard
-deviation is below :data:`DETERMINED` times its value.
+deviation is below :data:`~.outlook.DETERMINED` times its value.
 
 **What a candidate would separate**: the predicted curves of the diagnosis' choice and each
 rival over the candidate's points (:func:`~.separation.separation`, :math:`S` in noise units).
@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -66,125 +65,15 @@ from ..fitting.knowledge import prior_rows
 from ..measurement.scale import Name, Quantity, UnitText
 from ..models import JointModel
 from ..models.composed import at_physical_limit
-from .criteria import FROM_FE, FROM_FIT, RIVAL
+from .criteria import FROM_FE, FROM_FIT
 from .information import Block, free_columns, joint_std
-from .measurements import (DEEPER, HOLD_S, Candidate, acts_in_time, base_history, deeper, hold, recorded_history,
+from .measurements import (DEEPER, HOLD_S, acts_in_time, base_history, deeper, hold, recorded_history,
                            speed, sphere)
 from .prediction import model_of, predict
-from .separation import Separation, repeated, separation
+from .outlook import DETERMINED, Assessment, Outlook
+from .separation import repeated, separation
 
 log = logging.getLogger(__name__)
-
-#: a parameter is determined when its standard deviation is below this fraction of its value
-DETERMINED = 0.5
-#: below this separation (noise units) a candidate cannot separate two explanations: S^2, the chi-square
-#: rise before refitting, is under :data:`~.criteria.RIVAL`, the BIC gap at which a diagnosis excludes a rival
-TOO_CLOSE = math.sqrt(RIVAL)
-
-
-# ----------------------------------------------------------------------------- results (plain data)
-@dataclass
-class Assessment:
-    """What one candidate measurement would bring.
-
-    Attributes
-    ----------
-    candidate : Candidate
-    forces : dict
-        ``{model: ndarray}``: each explanation's predicted curve at the candidate's points (mN).
-    separations : list of Separation
-        The choice against each rival (:class:`~.separation.Separation`).
-    std : dict
-        ``{reported parameter: standard deviation}`` of the current model when the candidate is
-        fitted with the recorded curves (empty when not computed).
-    determines : list of str
-        The undetermined parameters it would determine (sd below :data:`DETERMINED` times the value).
-    error : str or None
-        Why it could not be predicted (a run that did not converge...), else None.
-    """
-
-    candidate: Candidate
-    forces: dict = field(default_factory=dict, repr=False)
-    separations: list = field(default_factory=list)
-    std: dict = field(default_factory=dict)
-    determines: list = field(default_factory=list)
-    error: str | None = None
-
-    @property
-    def closest(self) -> Separation | None:
-        """The separation of the closest rival (None without rival)."""
-        return min(self.separations, key=lambda s: s.separation, default=None)
-
-    @property
-    def separation(self) -> float:
-        """S of the closest rival (noise units; NaN without rival)."""
-        return math.nan if self.closest is None else self.closest.separation
-
-    @property
-    def too_close(self) -> bool:
-        """S^2 of a rival stays below :data:`~.criteria.RIVAL`: this candidate cannot separate it."""
-        return self.closest is not None and self.separation < TOO_CLOSE
-
-    def score(self, recorded_std: dict, names) -> float:
-        """Sum of log(sd with the candidate / sd of the recorded curves alone) over ``names`` (lower is
-        better; 0 without any)."""
-        out = 0.0
-        for k in names:
-            sd, base = self.std.get(k, math.nan), recorded_std.get(k, math.nan)
-            if math.isfinite(sd) and math.isfinite(base) and sd > 0 and base > 0:
-                out += math.log(sd / base)
-        return out
-
-
-@dataclass
-class Outlook:
-    """The outcome of :func:`weigh`: every candidate measurement, what it would separate and determine.
-
-    Attributes
-    ----------
-    explanations : list of str
-        The models weighed against each other, the choice first (one: nothing competes).
-    current : str
-        The model whose standard deviations are predicted (the diagnosis' last rung).
-    recorded_std : dict
-        ``{reported parameter: standard deviation}`` of ``current`` from the recorded curves alone
-        (finite-element Jacobians at the fitted values, the priors included); empty when not computed.
-    noise_mN : float
-        The noise of the first recorded curve, the noise of every candidate (mN).
-    ranking : list of Assessment
-        The candidates, best first (:func:`rank`); those that could not be predicted last.
-    skipped : dict
-        ``{measurement: why}``: measurements not weighed.
-    notes : list of str
-    settings : dict
-        The candidate settings it was weighed with (``radii_mm``, ``max_depth_mm``, ``hold_s``,
-        ``speeds_mm_per_s``; None: the defaults).
-    """
-
-    explanations: list
-    current: str
-    recorded_std: dict
-    noise_mN: float
-    ranking: list
-    skipped: dict = field(default_factory=dict)
-    notes: list = field(default_factory=list)
-    settings: dict = field(default_factory=dict)
-
-    @property
-    def with_std(self) -> bool:
-        """The standard deviations were computed (the finite-element Jacobians)."""
-        return bool(self.recorded_std)
-
-    def best(self, n: int = 1) -> list:
-        """The first ``n`` candidates that could be predicted."""
-        return [a for a in self.ranking if a.error is None][:n]
-
-    @property
-    def next(self) -> Assessment | None:
-        """The next measurement: the best candidate that could be predicted (None: none)."""
-        top = self.best(1)
-        return top[0] if top else None
-
 
 # ----------------------------------------------------------------------------- the candidates
 def candidates(base, *, radii=None, max_depth_mm=None, hold_s=None, speeds=(), not_in_time: str | None = None,
@@ -423,7 +312,7 @@ def rank(outlook: Outlook, undetermined: dict) -> Outlook:
 
 # ----------------------------------------------------------------------------- what the diagnosis says
 def loose(rung, fixed) -> list:
-    """Parameters of ``rung`` whose fitted standard deviation is not below :data:`DETERMINED` times the
+    """Parameters of ``rung`` whose fitted standard deviation is not below :data:`~.outlook.DETERMINED` times the
     value (a value held, ``fixed``, is known, not determined)."""
     return [k for k, v in rung.parameters.items()
             if k not in fixed and math.isfinite(v) and not rung.std.get(k, math.nan) <= DETERMINED * abs(v)]
@@ -460,7 +349,7 @@ def suggestion(name: str, value: float, outlook: Outlook | None) -> str:
 
 
 def determine(rung, fixed, outlook: Outlook | None) -> tuple[dict, dict, dict, dict]:
-    """What the curve determines of a fitted rung, from the fit and the engine's :class:`Outlook`.
+    """What the curve determines of a fitted rung, from the fit and the engine's :class:`~.outlook.Outlook`.
 
     Parameters
     ----------

@@ -11,7 +11,7 @@ ranks the measurements the user can make of the same sample (each sphere radius 
 a deeper indentation, a hold, another loading speed; the recorded measurement made again is
 the yardstick) by what they would separate and determine. It is the diagnosis' own engine
 (:mod:`.identifiability`: :func:`~.identifiability.weigh`, :func:`~.identifiability.rank`):
-with its default settings the plan reads the :class:`~.identifiability.Outlook` the diagnosis
+with its default settings the plan reads the :class:`~.outlook.Outlook` the diagnosis
 computed (the same next measurement, the same standard deviations, no run made); with other
 radii, depths, holds or speeds, or where the diagnosis kept to surfaces and computed no
 standard deviation, the same functions weigh them. The statistics:
@@ -28,7 +28,7 @@ standard deviation, the same functions weigh them. The statistics:
    is fitted together with the recorded curves (the information matrices summed, from
    finite-element Jacobians of the fitted model at its values, the priors' rows included:
    :mod:`.identifiability`); a parameter is then *determined* below
-   :data:`~.identifiability.DETERMINED` times its value.
+   :data:`~.outlook.DETERMINED` times its value.
 
 The predicted curves and a figure are written by :func:`skin_indent.report.write_plan`.
 """
@@ -45,7 +45,8 @@ from ..runtime.context import context_of
 from ..runtime.json_io import jsonable
 from ..runtime.provenance import data_identity, provenance
 from . import identifiability
-from .identifiability import TOO_CLOSE, Assessment, Outlook, rank, weigh
+from .identifiability import rank, weigh
+from .outlook import TOO_CLOSE, Assessment, Outlook
 from .workflow import RIVAL, Diagnosis, diagnose
 
 log = logging.getLogger(__name__)
@@ -97,7 +98,7 @@ class Plan:
     noise_mN : float
         The noise of the first recorded curve, the noise of every candidate (mN).
     outlook : Outlook or None
-        What the candidates would separate and determine (:class:`~.identifiability.Outlook`): the
+        What the candidates would separate and determine (:class:`~.outlook.Outlook`): the
         diagnosis' own with the default settings; None when there is nothing to plan.
     notes : list of str
     provenance : dict
@@ -120,7 +121,7 @@ class Plan:
 
     @property
     def ranking(self) -> list:
-        """The candidates (:class:`~.identifiability.Assessment`), best first."""
+        """The candidates (:class:`~.outlook.Assessment`), best first."""
         return list(self.outlook.ranking) if self.outlook is not None else []
 
     @property
@@ -164,8 +165,9 @@ class Plan:
         parts = []
         s = a.closest
         if s is not None and s.repeat:
-            parts.append(f"made again it would add the systematic part of the chi-square gap the recorded curve gives between {s.a} and "
-                         f"{s.b}, {s.separation:.3g} noise units" + (", too little to separate them" if a.too_close else ""))
+            parts.append(f"made again it would add the systematic part of the chi-square gap the recorded curve "
+                         f"gives between {s.a} and {s.b}, {s.separation:.3g} noise units"
+                         + (", too little to separate them" if a.too_close else ""))
         elif s is not None:
             parts.append(f"the predicted curves of {s.a} and {s.b} differ there by {s.separation:.3g} noise units in "
                          f"root-sum-square over its {s.points} points (up to {s.max_difference_mN:.3g} mN, "
@@ -206,8 +208,8 @@ class Plan:
                 parts.append(text)
             lines.append(f"not determined ({cur.model}): " + ", ".join(parts))
         lines.append("candidates, best first (S: root-sum-square difference of the predicted curves over the "
-                     f"candidate's points, noise units, before refitting; the same sphere again: the systematic part of "
-                     f"the recorded chi-square gap; too close below {TOO_CLOSE:.3g}; sd: fitted "
+                     f"candidate's points, noise units, before refitting; the same sphere again: the systematic "
+                     f"part of the recorded chi-square gap; too close below {TOO_CLOSE:.3g}; sd: fitted "
                      "with the recorded curves):")
         for i, a in enumerate(self.ranking, 1):
             ref = " [the recorded measurement again]" if a.candidate.reference else ""

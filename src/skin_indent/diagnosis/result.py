@@ -101,7 +101,7 @@ class Diagnosis:
     std_source: dict = field(default_factory=dict)
     not_determined: dict = field(default_factory=dict)
     untried: dict = field(default_factory=dict)
-    #: the next measurement (:class:`~.identifiability.Outlook`, plain data): every candidate measurement,
+    #: the next measurement (:class:`~.outlook.Outlook`, plain data): every candidate measurement,
     #: what it would separate and determine, ranked; what ``not_determined``, ``suggested_measurement`` and
     #: :func:`~.planning.plan` read (None: nothing competes and nothing was left loose)
     outlook: object = field(default=None, repr=False)
@@ -182,7 +182,7 @@ class Diagnosis:
     def undetermined(self) -> dict:
         """Parameters of the last rung the curve does not determine: ``{name: reason}``.
 
-        Not determined: a standard deviation over :data:`~.identifiability.DETERMINED`
+        Not determined: a standard deviation over :data:`~.outlook.DETERMINED`
         times the value (or not finite), by the fit and, where finite-element runs are
         allowed, by the finite-element derivatives at the fitted values (they decide, and
         they are the standard deviation the last rung reports: ``std_source``); the reason

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..diagnosis.identifiability import DETERMINED
+from ..diagnosis.outlook import DETERMINED
 from ..diagnosis.separation import error_model
 from ..diagnosis.planning import BEST
 from ..runtime.atomic import atomic_write
