@@ -294,7 +294,8 @@ def test_the_second_order_is_the_first_fit_under_its_own_name(fitter):
     n, cores = _BodyCore.evaluations, len(fitter.made_cores)
     second = fitter.fit(("stiffening", "layer"))
     assert _BodyCore.evaluations == n and len(fitter.made_cores) == cores  # no run, no other core
-    assert second.forward_runs == 0 and second.info["same_fit_as"] == "neo-hooke+layer+stiffening"
+    # the runs of the fit that gave its numbers (none made here), and which fit that was
+    assert second.forward_runs == first.forward_runs and second.info["same_fit_as"] == "neo-hooke+layer+stiffening"
     assert second.model == "neo-hooke+stiffening+layer" and second.effects == ("stiffening", "layer")
     assert second.bound_model.name == second.model
     assert list(second.parameters) == ["E_kPa", "nu", "C20_kPa", "thickness_mm", "ratio"]  # in its own order
@@ -314,15 +315,23 @@ def test_the_second_order_is_the_first_fit_under_its_own_name(fitter):
     assert fitter.fit(("stiffening", "layer")) is second  # kept
 
 
-def test_one_fit_all_fits_one_order_of_a_model(fitter):
+def _evaluations(fitter, keys) -> int:
+    """The stand-in's evaluations while ``fitter`` fits ``keys`` at once (fit_all)."""
     fitter.fit(())
     n = _BodyCore.evaluations
+    fitter.fit_all(keys)
+    return _BodyCore.evaluations - n
+
+
+def test_one_fit_all_fits_one_order_of_a_model(fitter):
+    both = _evaluations(fitter, [("stiffening", "layer"), ("layer", "stiffening")])
     out = fitter.fit_all([("stiffening", "layer"), ("layer", "stiffening")])
-    fitted = _BodyCore.evaluations - n
     assert out["layer", "stiffening"].info["same_fit_as"] == "neo-hooke+stiffening+layer"
     assert out["layer", "stiffening"].parameters == out["stiffening", "layer"].parameters
-    assert fitted > 0 and out["layer", "stiffening"].forward_runs == 0
-    assert len({id(c) for c in fitter.made_cores if c.elastic}) == 1  # one core for the model
+    assert out["layer", "stiffening"].forward_runs == out["stiffening", "layer"].forward_runs
+    assert len([c for c in fitter.made_cores if c.elastic]) == 1  # one core for the model
+    alone = Fitter(fitter.data, 0.01, noise_known=True, context=None, mesh="coarse")
+    assert both == _evaluations(alone, [("stiffening", "layer")]) > 0  # the evaluations of one fit, in all
 
 
 def test_a_branch_that_reaches_a_climbed_rung_in_another_order_joins_it():
@@ -334,3 +343,26 @@ def test_a_branch_that_reaches_a_climbed_rung_in_another_order_joins_it():
     assert branches.joins(fitter, ("stiffening", "layer"), [("layer",), ("layer", "stiffening")],
                           scores) == ("layer", "stiffening")
     assert branches.joins(fitter, ("stiffening", "layer"), [("layer",)], scores) is None  # not climbed: no join
+
+
+def test_two_curves_of_a_sample_give_the_second_order_the_first_fit(monkeypatch):
+    """The joint model of two curves (two spheres): relabelled as one curve's is, its curves' models in the
+    order asked."""
+    monkeypatch.setattr(multistart, "elastic_core", lambda effects, *, radius_mm, **_: _BodyCore(effects, radius_mm))
+    monkeypatch.setattr(multistart, "screen", lambda fitter, model, starts, keep, nested=None: starts[:keep])
+    d = np.linspace(0.006, 0.6, 60)
+    curves = []
+    for r, seed in ((R, 3), (R / 2, 4)):
+        F = _BodyCore(("layer", "stiffening"), r).force(d, [10.0, 0.45, 1.5, 0.4, 2.0])
+        F = F + np.random.default_rng(seed).normal(0.0, 0.01, d.size)
+        curves.append(prepare(measurement_from_arrays(d, F, source=f"R{r}.csv", radius_mm=r), segments=("approach",),
+                              contact="origin"))
+    fitter = Fitter(curves, [0.01, 0.01], noise_known=True, context=None, mesh="coarse")
+    first = fitter.fit(("layer", "stiffening"))
+    n = _BodyCore.evaluations
+    second = fitter.fit(("stiffening", "layer"))
+    assert _BodyCore.evaluations == n and second.info["same_fit_as"] == first.model
+    assert [p.name for p in second.bound_model.parts] == ["neo-hooke+stiffening+layer"] * 2
+    assert second.parameters == first.parameters and list(second.parameters)[2] == "C20_kPa"
+    assert np.allclose(second.bound_model.force(second.bound_model.depth_mm, second.x), second.prediction_mN,
+                       rtol=0, atol=1e-12)

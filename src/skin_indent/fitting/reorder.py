@@ -39,9 +39,9 @@ def relabelled(fitter, rung, key: tuple):
     FitResult or None
         The same numbers (chi-square, residual, parameters and standard deviations, covariance) with
         ``model``, ``effects``, ``bound_model``, ``x``, ``fit_parameters``, ``parameters``, ``std`` and
-        ``reported_cov`` in the order of ``key``; ``forward_runs`` 0 (it made none) and
-        ``info["same_fit_as"]`` the model that was fitted. None when the two models do not have the
-        same parameters (then they are not one model: fitted on their own).
+        ``reported_cov`` in the order of ``key``; ``forward_runs`` those of the fit that gave the numbers
+        (relabelling makes none) and ``info["same_fit_as"]`` its model. None when the two models do not
+        have the same parameters (then they are not one model: fitted on their own).
     """
     old = rung.bound_model
     if old is None or rung.x is None:
@@ -63,5 +63,5 @@ def relabelled(fitter, rung, key: tuple):
         rung, model=model_name(key), effects=tuple(key), bound_model=model, x=x,
         fit_parameters={n: rung.fit_parameters[n] for n in names if n in rung.fit_parameters},
         parameters={k: rung.parameters[k] for k in order}, std={k: rung.std[k] for k in order if k in rung.std},
-        reported_cov=(tuple(shown), np.asarray(V)[np.ix_(at, at)]), forward_runs=0,
+        reported_cov=(tuple(shown), np.asarray(V)[np.ix_(at, at)]),
         info={**(rung.info or {}), "same_fit_as": rung.model})
