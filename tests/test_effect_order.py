@@ -366,3 +366,20 @@ def test_two_curves_of_a_sample_give_the_second_order_the_first_fit(monkeypatch)
     assert second.parameters == first.parameters and list(second.parameters)[2] == "C20_kPa"
     assert np.allclose(second.bound_model.force(second.bound_model.depth_mm, second.x), second.prediction_mN,
                        rtol=0, atol=1e-12)
+
+
+def test_a_model_not_tried_is_listed_once_whatever_its_order():
+    """Two explanations that each could not test the same model (``layer+stiffening`` on top of the layer
+    rung, ``stiffening+layer`` on top of the stiffening rung) leave it untried once, in the first order met."""
+    from types import SimpleNamespace
+
+    from skin_indent.diagnosis import workflow
+    from skin_indent.diagnosis.criteria import NOT_FITTED
+
+    why = f"{NOT_FITTED}: it ended at its start values"
+    steps = [SimpleNamespace(rung=SimpleNamespace(effects=("layer",)), not_detectable={"stiffening": why,
+                                                                                        "layer": why}),
+             SimpleNamespace(rung=SimpleNamespace(effects=("stiffening",)), not_detectable={"layer": why})]
+    out = workflow._untried(SimpleNamespace(in_loop=True), steps, None, (), 3)
+    assert list(out) == ["layer+stiffening", "layer+layer"]
+    assert out["layer+stiffening"] == "it ended at its start values"
