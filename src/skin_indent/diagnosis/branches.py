@@ -6,13 +6,15 @@ rung of the first explanation with one more effect that does nothing there: the 
 that explanation, and is not climbed further (issue 39: measured on the demo's pair of curves, the
 contact points' branch ends on top of the layer rung with the contact points at 0, and climbing it
 cost two more fits with the finite-element model in the loop that could only find the first
-explanation again).
+explanation again); or when it has reached a rung of the first explanation in another order
+(``stiffening+layer`` after ``layer+stiffening``: one model).
 """
 
 from __future__ import annotations
 
 import logging
 
+from ..effects.order import same_model
 from ..fitting.multistart import Fitter
 from .criteria import Scores
 
@@ -57,9 +59,18 @@ def joins(fitter: Fitter, key: tuple, kept, scores: Scores) -> tuple | None:
     both. Both rungs are fitted by then (``key`` by the examination that named its last effect, ``r``
     by the climb that kept it). An effect that lowers the BIC, even by less than :data:`~.criteria.STRONG`, keeps
     its branch: the explanations are compared as before.
+
+    ``key`` also joins a rung ``r`` of ``kept`` that holds its effects in another order
+    (:func:`~skin_indent.effects.order.same_model`: ``stiffening+layer`` and ``layer+stiffening``): one model,
+    fitted once (:meth:`~skin_indent.fitting.multistart.Fitter.fit`), whose explanation is climbed already.
     """
     if len(key) < 2:
         return None
+    for r in kept:
+        if len(r) == len(key) and r != key and same_model(r, key):
+            log.info("%s is %s in another order: that explanation is climbed already",
+                     "+".join(("neo-hooke",) + key), "+".join(("neo-hooke",) + r))
+            return r
     for r in kept:
         if len(r) + 1 != len(key) or not contains(key, r) or r not in fitter.fits or key not in fitter.fits:
             continue

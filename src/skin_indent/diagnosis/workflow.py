@@ -67,6 +67,7 @@ import logging
 import re
 
 from ..effects import BASE_PARAMETERS, EFFECTS, WEIGHED, effect, instances, numbered
+from ..effects.order import same_model
 from ..effects.repeat import addable
 from ..measurement import SEGMENTS, CurveSet
 from .evidence import suggest_measurement
@@ -171,8 +172,14 @@ def _fittable(fitter: Fitter, key: tuple, candidates) -> list[str]:
 def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max_rungs: int) -> dict:
     """``{"layer+layer": why}``: the combinations not fitted by the examinations ``examined`` (every
     explanation climbed), and those on top of the last rung ``unexamined`` that the climb reached at
-    ``max_rungs`` without examining it (None: none such)."""
+    ``max_rungs`` without examining it (None: none such); each model once, in the first order met
+    (``stiffening+layer`` is ``layer+stiffening``: :func:`~skin_indent.effects.order.same_model`)."""
     out: dict[str, str] = {}
+
+    def note(key: tuple, why: str) -> None:  # a model once: not again in another order (effects.order)
+        if not any(same_model(key, tuple(k.split("+"))) for k in out):
+            out["+".join(key)] = why
+
     for step in examined:
         for name, why in step.not_detectable.items():
             if not why.startswith(NOT_FITTED):
@@ -186,12 +193,11 @@ def _untried(fitter: Fitter, examined, unexamined: tuple | None, candidates, max
             if not fitter.in_loop and "in the loop" in why:
                 why = ("no response surface combines these effects, and in_loop=False (--surfaces-only) switches "
                        "off the finite-element model in the loop")
-            out.setdefault("+".join(step.rung.effects + (name,)), why)
+            note(step.rung.effects + (name,), why)
     if unexamined is not None:
         for name in _fittable(fitter, unexamined, candidates):
-            out.setdefault("+".join(unexamined + (name,)),
-                           f"the climb stopped at max_rungs = {max_rungs} before examining "
-                           f"{'+'.join(unexamined) or 'the given model'}")
+            note(unexamined + (name,), f"the climb stopped at max_rungs = {max_rungs} before examining "
+                                       f"{'+'.join(unexamined) or 'the given model'}")
     return out
 
 

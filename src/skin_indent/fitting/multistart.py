@@ -11,6 +11,7 @@ import threading
 import numpy as np
 
 from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, Model, instances, model_name
+from ..effects.order import same_model
 from ..inverse import IdentificationResult
 from ..inverse import fit_least_squares
 from ..inverse.residuals import analyse_residuals
@@ -28,6 +29,7 @@ from .scale_checks import check_points
 from .ended import how_it_ended, reported_message, stalled
 from .resume import at_rigid_base, cost as _cost, first_fit, resumed
 from .starts import MAX_STARTS, same_body, screen, start_vectors
+from .reorder import relabelled
 from .surfaces import elastic_core
 
 log = logging.getLogger(__name__)
@@ -340,9 +342,13 @@ class Fitter:
         keys = [tuple(k) for k in keys]
         groups: dict[int, list] = {}  # new in-loop fits by core: a core serves one thread
         done = {}
-        for key in keys:
-            if key in self.fits:
-                done[key] = self.fits[key]
+        later = []  # the same model as a key before it, in another order: relabelled once that one is fitted
+        for i, key in enumerate(keys):
+            if key in self.fits or self.twin(key) is not None:
+                done.update(attempt([key]))
+                continue
+            if any(same_model(k, key) for k in keys[:i]):
+                later.append(key)
                 continue
             try:
                 self.check_points_before_building(key)  # a curve too short for it builds nothing
@@ -374,12 +380,30 @@ class Fitter:
         else:
             for group in groups.values():
                 done.update(attempt(group))
+        for key in later:  # the fit of its first order, or that order's error
+            first = done[next(k for k in keys if same_model(k, key))]
+            done.update({key: first} if isinstance(first, ValueError) else attempt([key]))
         return {key: done[key] for key in keys}
 
+    def twin(self, effects: tuple) -> tuple | None:
+        """The fitted set of effects that is the model of ``effects`` in another order
+        (:func:`~skin_indent.effects.order.same_model`: ``layer+stiffening`` for ``stiffening+layer``), or None."""
+        key = tuple(effects)
+        return next((k for k in list(self.fits) if k != key and same_model(k, key)), None)
+
     def fit(self, effects: tuple) -> FitResult:
+        """The fit of the model of ``effects`` (:class:`FitResult`), made once: the same effects in another
+        order fitted before give its numbers under this order's name (:func:`~.reorder.relabelled`)."""
         key = tuple(effects)
         if key in self.fits:
             return self.fits[key]
+        twin = self.twin(key)
+        if twin is not None:
+            rung = relabelled(self, self.fits[twin], key)
+            if rung is not None:
+                log.info("%s is %s in another order: its fit", model_name(key), self.fits[twin].model)
+                self.fits[key] = rung
+                return rung
         self.check_points_before_building(key)
         model = self.model(key)
         self.check_points(model)
