@@ -1,9 +1,9 @@
-"""The multistart fitter of any model (the half-space with any effects): each set of effects fitted once, as a :class:`~skin_indent.fitting.FitResult`."""
+"""The multistart fitter of any model (the half-space with any effects): each set of effects fitted once,
+as a :class:`~skin_indent.fitting.FitResult` (:mod:`.assembly` makes it from the end of the fit;
+:mod:`.side_by_side` fits several at once)."""
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
 import logging
 import math
 import threading
@@ -12,24 +12,21 @@ import numpy as np
 
 from ..effects import CONTACT_POINT, ELASTIC, WEIGHED, Model, instances, model_name
 from ..effects.order import same_model
-from ..inverse import IdentificationResult
 from ..inverse import fit_least_squares
-from ..inverse.residuals import analyse_residuals
-from ..inverse.result import jacobian_covariance
 from ..measurement import CurveSet
-from ..measurement.scale import joined
 from ..models import ComposedModel, JointModel
 from .identification import hertz_modulus
 from .error_model import MODEL_ERROR, described, point_sigma
-from .result import scored
 from .result import FitResult
-from .rung import NO_STRUCTURE, evidence, reported_covariance, structure_sentence
-from .knowledge import held_coordinates, needs_data_alone, prior_rows, prior_summary
+from .rung import NO_STRUCTURE, evidence, structure_sentence
+from .knowledge import held_coordinates
 from .scale_checks import check_points
-from .ended import how_it_ended, reported_message, stalled
+from .ended import stalled
 from .resume import at_rigid_base, cost as _cost, first_fit, resumed
 from .starts import MAX_STARTS, same_body, screen, start_vectors
 from .reorder import relabelled
+from .assembly import assemble
+from .side_by_side import side_by_side
 from .surfaces import elastic_core
 
 log = logging.getLogger(__name__)
@@ -51,19 +48,6 @@ FE_PROBE = 5
 FE_TOL = 1e-4
 #: function evaluations of a fit on response surfaces (None: scipy's default, 100 per parameter)
 SURFACE_MAX_EVALUATIONS = None
-
-
-def _coordinates(model, best) -> tuple[np.ndarray, np.ndarray]:
-    """The fit coordinates of ``best`` (an IdentificationResult of ``model``) in the model's order and their
-    covariance (held values: 0; the free ones' as fitted, NaN where it has none)."""
-    x = np.array([best.parameters[n] for n in model.parameter_names])
-    cov = np.full((x.size, x.size), np.nan)
-    idx = [model.parameter_names.index(n) for n in best.free_names]
-    held = [model.parameter_names.index(n) for n in best.fixed_names]
-    cov[held, :] = 0.0  # a held value has no variance
-    cov[:, held] = 0.0
-    cov[np.ix_(idx, idx)] = best.covariance
-    return x, cov
 
 
 class Fitter:
@@ -286,104 +270,14 @@ class Fitter:
                 best = rung  # of equal size, the one of the same elastic body (starts.same_body)
         return best
 
-    def _data_alone(self, model, x, known: dict, options: dict, name: str) -> tuple[float, float]:
-        """``(value, sd)`` of the reported parameter ``name`` by the fit of ``model`` without its prior,
-        from the fit with it at ``x`` (the fit coordinates); NaN where that fit fails
-        (:func:`~.knowledge.needs_data_alone` says when it is made)."""
-        terms = self.prior_terms(model, but=name)
-        d = self.data
-        try:
-            alone = fit_least_squares(model, d.depth_mm, d.force_mN, x, noise_mN=self.noise_mN,
-                                      **{**known, "priors": terms or None}, **options)
-        except ValueError:
-            return math.nan, math.nan
-        params, std = model.reported(*_coordinates(model, alone))
-        log.info("%s: the prior's tension checked by the fit without it: %s = %.4g +- %.2g", model.name, name,
-                 params[name], std.get(name, math.nan))
-        return float(params[name]), float(std.get(name, math.nan))
-
     def prior_chi2(self, model, x) -> float:
         """The priors' share of the cost at ``x``: sum of ((g(x) - mean) / sd)^2."""
         return float(sum(((g(x) - mean) / sd) ** 2 for g, mean, sd in self.prior_terms(model)))
 
     def fit_all(self, keys) -> dict:
-        """Fit several sets of effects: ``{key: FitResult or ValueError}`` (the error of a set that
-        cannot be fitted), in the order of ``keys``.
-
-        Sets fitted with the finite-element model in the loop (two layers, layer and
-        stiffening) are fitted at once, one thread per elastic core whose runs go to worker
-        processes (:meth:`~skin_indent.models.fe_core.FECore.in_workers`): a fit's evaluations
-        are serial, so two fits side by side keep both cores busy. Each fit is the one
-        :meth:`fit` makes alone (its own core, its own warm start from the rungs already fitted).
-        """
-        from concurrent.futures import ThreadPoolExecutor
-
-        before = set(self.fits)
-
-        def attempt(group, threaded=False):
-            # a fit in a thread starts only from the fits made before this call and those of its own
-            # group: whether another thread's fit has finished yet must not change where it starts
-            if threaded:
-                self._seen.keys = set(before)
-            out = {}
-            try:
-                for key in group:
-                    try:
-                        out[key] = self.fit(key)
-                    except ValueError as err:
-                        out[key] = err
-                    if threaded:
-                        self._seen.keys.add(key)
-            finally:
-                if threaded:
-                    self._seen.keys = None
-            return out
-
-        keys = [tuple(k) for k in keys]
-        groups: dict[int, list] = {}  # new in-loop fits by core: a core serves one thread
-        done = {}
-        later = []  # the same model as a key before it, in another order: relabelled once that one is fitted
-        for i, key in enumerate(keys):
-            if key in self.fits or self.twin(key) is not None:
-                done.update(attempt([key]))
-                continue
-            if any(same_model(k, key) for k in keys[:i]):
-                later.append(key)
-                continue
-            try:
-                self.check_points_before_building(key)  # a curve too short for it builds nothing
-                cores = self.model(key).cores  # the cores are made here, in this thread
-            except ValueError as err:
-                done[key] = err
-                continue
-            looped = tuple(id(c) for c in cores if c.in_loop)
-            if looped:
-                groups.setdefault(looped, []).append(key)
-            else:
-                done.update(attempt([key]))
-        if len(groups) > 1:
-            cores = [c for group in groups.values() for c in self.model(group[0]).cores if c.in_loop]
-            with contextlib.ExitStack() as stack:
-                for core in cores:
-                    stack.enter_context(core.in_workers())
-                    core.start_workers()  # forked from this (the main) thread, not from the fits'
-                pool = ThreadPoolExecutor(max_workers=len(groups))
-                try:
-                    for out in pool.map(lambda g: attempt(g, threaded=True), groups.values()):
-                        done.update(out)
-                except BaseException:  # an interrupt: the other threads stop at their next run
-                    for core in cores:
-                        core.cancel()
-                    raise
-                finally:
-                    pool.shutdown(wait=True)
-        else:
-            for group in groups.values():
-                done.update(attempt(group))
-        for key in later:  # the fit of its first order, or that order's error
-            first = done[next(k for k in keys if same_model(k, key))]
-            done.update({key: first} if isinstance(first, ValueError) else attempt([key]))
-        return {key: done[key] for key in keys}
+        """Fit several sets of effects at once, the fits in the loop side by side: ``{key: FitResult or
+        ValueError}`` in the order of ``keys`` (:func:`~.side_by_side.side_by_side`)."""
+        return side_by_side(self, keys)
 
     def twin(self, effects: tuple) -> tuple | None:
         """The fitted set of effects that is the model of ``effects`` in another order
@@ -508,52 +402,7 @@ class Fitter:
             cached = sum(getattr(c, "cached", 0) for c in model.cores) - cached0
             log.info("fitted %s: %d finite-element runs%s", model.name, runs,
                      f" ({cached} read from the run cache)" if cached else "")
-        x, cov = _coordinates(model, best)
-        pred = d.force_mN - best.residuals_mN
-        active = [n for n in best.info.get("active_bounds", ()) if n in best.free_names]
-        if active and not np.all(np.isfinite(best.covariance)):
-            # a parameter on a face of its range (a rigid base: compliance 0) is held there: the
-            # covariance of the others is that of the fit with it fixed
-
-            keep = [model.parameter_names.index(n) for n in best.free_names if n not in active]
-            noise = self.noise_points[:, None] if self.joint else self.noise_mN
-            rows = model.jacobian(d.depth_mm, x)[:, keep] / noise
-            terms = known["priors"] or ()
-            if terms:  # the priors' rows, whitened as the data's: the posterior, as the fit's own covariance
-                rows = np.vstack([rows, prior_rows(terms, x, keep, lo, hi)])
-            cov = np.zeros((x.size, x.size))
-            cov[np.ix_(keep, keep)] = jacobian_covariance(rows)[0]
-        params, std = model.reported(x, cov)
-        for k in self.fixed:  # held: reported without a standard deviation, as every fit does
-            std.pop(k, None)
-        for k in best.fixed_names:
-            std.pop(k, None)
-        knowledge = {k: prior_summary(params[k], std.get(k, math.nan), *self.priors[k])
-                     for k in self.priors if k in params}
-        for k, summary in knowledge.items():
-            if needs_data_alone(summary):  # the linearised tension of a prior-determined parameter: refit without it
-                knowledge[k] = prior_summary(params[k], std.get(k, math.nan), *self.priors[k],
-                                             alone=self._data_alone(model, x, known, options, k))
-        r = best.residuals_mN
-        s = self.sigma(pred)
-        try:
-            analysis = analyse_residuals(r * (self.noise_mN / s), self.noise_mN, best.n_free, noise_dof=self.noise_dof)
-        except ValueError:  # too few points to test the residual (a fit of 4 points, nu held): not judged white
-            analysis = None
-        curve_rms, curve_white = self._per_curve(r, s, best.n_free)
-        base = {f.name: getattr(best, f.name) for f in dataclasses.fields(IdentificationResult)}
-        chi2 = float(np.sum((r / s) ** 2))
-        base.update(parameters=params, std=std, chi2=chi2, message=reported_message(best, model, x),
-                    **scored(chi2, r * (self.noise_mN / s), best.n_free))
-        ended = tuple(how_it_ended(best, model, x))
-        rung = FitResult(**base, model=model_name(key), effects=key,
-                    fit_parameters=dict(best.parameters), prediction_mN=pred,
-                    chi2_weighted=chi2, white=bool(analysis is not None and analysis.white), analysis=analysis,
-                    structure=self.structure(r, s), bound_model=model, x=x, forward_runs=runs,
-                    at_bounds=tuple(best.info.get("active_bounds", ())), priors=knowledge, curve_rms_mN=curve_rms,
-                    curve_white=curve_white, ended=ended, flags=tuple(e.text for e in ended),
-                    error_model=self.error_model(),
-                    reported_cov=reported_covariance(model, x, cov))
+        rung = assemble(self, model, key, best, known, options, runs)
         self.fits[key] = rung
         return rung
 
@@ -586,35 +435,6 @@ class Fitter:
         """:func:`~.resume.resumed` on this fitter's points (the fit's own ``known`` and ``options``)."""
         return resumed(model, self.data.depth_mm, self.data.force_mN, result, noise_mN=self.noise_mN, known=known,
                        options=options, early=early)
-
-    def _per_curve(self, residual, sigma, n_free: int) -> tuple[tuple, tuple]:
-        """Each curve's RMS residual (mN) and whether its residual alone is white (one curve: the fit's)."""
-        if not self.joint:
-            rms = float(np.sqrt(np.mean(residual**2)))
-            return (rms,), ()
-        rms, white = [], []
-        for (c, sl), noise in zip(zip(self.curves, self.data.slices), self.noises_mN):
-            r = residual[sl]
-            rms.append(float(np.sqrt(np.mean(r**2))))
-            try:
-                a = analyse_residuals(r * (noise / sigma[sl]), noise, 0, noise_dof=None if self.noise_dof is None
-                                      else 0.35 * c.n)
-                white.append(bool(a.white))
-            except ValueError:  # too few points for the tests
-                white.append(True)
-        return tuple(rms), tuple(white)
-
-    def structure(self, residual, sigma) -> str:
-        """Where the residual departs from the noise, in words (:func:`structure_sentence`), per curve
-        of a sample (``"curve 2 (file): ..."``)."""
-        if not self.joint:
-            return structure_sentence(self.data, residual, sigma)
-        parts = []
-        for k, (c, sl) in enumerate(zip(self.curves, self.data.slices)):
-            text = structure_sentence(c, residual[sl], sigma[sl])
-            if text != NO_STRUCTURE:
-                parts.append(joined("", [f"curve {k + 1} ({c.source}): ", text]))
-        return joined("; ", parts) if parts else NO_STRUCTURE
 
 
 def in_loop(model) -> bool:
