@@ -299,7 +299,7 @@ def test_curve_scale_flags_are_the_fit_flags_of_the_same_slips():
 def test_diagnose_holds_nu_at_afm_scale_unless_freed(monkeypatch):
     """As ``fit``: nu held at AFM scale (at 0.49, the surfaces' nearly incompressible end), free on
     request and at skin scale; a note says so and by how much E at nu = 0.5 differs."""
-    from skin_indent.diagnosis.workflow import AFM_NU, scale_conventions
+    from skin_indent.diagnosis.knowns import AFM_NU, scale_conventions
     from skin_indent.measurement import prepare
 
     afm, skin = prepare(load_csv(JPK)), prepare(_forearm())

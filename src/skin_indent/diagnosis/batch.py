@@ -36,7 +36,8 @@ from ..runtime.batch import BatchRows, one_line, run_tasks
 from ..runtime.context import context_of
 from ..runtime.json_io import jsonable
 from ..runtime.provenance import provenance as make_provenance
-from .workflow import check_known, diagnose
+from .knowns import check_known
+from .workflow import diagnose
 
 __all__ = ["DIAGNOSIS_COLUMNS", "FAILED", "DiagnosisBatch", "DiagnosisRow", "diagnose_many", "portable"]
 
