@@ -302,8 +302,11 @@ def _force(W, h, fe, initial) -> np.ndarray:
         fit = receding & seen
         with np.errstate(divide="ignore", invalid="ignore"):
             before = np.where(fit, A[rows, k] / (A[rows, k] - A[rows, k1]), 0.0)  # fraction of step k before t_1
-        done = np.cumsum(Wr * dfe, axis=1)  # done[i, k] = W[n, :k + 1] @ dfe[:k + 1]
-        partial = np.where(k > 0, done[rows, np.maximum(k - 1, 0)], 0.0)  # W[n, :k] @ dfe[:k]
+        # W[n, :k] @ dfe[:k], over the steps where the elastic force changes (in contact) only
+        acting = np.flatnonzero(dfe)
+        done = np.cumsum(Wr[:, acting] * dfe[acting], axis=1)
+        below = np.searchsorted(acting, k)  # acting steps before step k
+        partial = np.where(below > 0, done[rows, np.maximum(below - 1, 0)] if acting.size else 0.0, 0.0)
         new = initial[rec] + partial + before * Wr[rows, k] * dfe[k]
         force[rec[fit]] = new[fit]
         force[rec[receding & ~seen]] = 0.0  # receded past first contact
