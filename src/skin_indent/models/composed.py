@@ -128,8 +128,11 @@ class ComposedModel:
         """dF/dtheta: central differences of relative step 1e-5 (one-sided at the box faces),
         dF/dE exact where F is linear in E; where the core is the finite-element model in the
         loop, its own derivatives (:meth:`~skin_indent.models.fe_core.FECore.jacobian`)
-        carried through the later stages (which act linearly on the elastic force).
-        Only the ``columns`` asked for (indices; default all) are computed, the others are 0."""
+        carried through the later stages (which act linearly on the elastic force). A parameter of
+        the history or force stage (relaxation, drag, baselines, adhesion) is differenced from the
+        force ahead of its stage at ``theta`` (:meth:`_from_stage`: the same numbers, the elastic core
+        and the stages before not evaluated again). Only the ``columns`` asked for (indices; default
+        all) are computed, the others are 0."""
         theta = np.asarray(theta, dtype=float)
         lo, hi = self.bounds
         J = np.zeros((self.depth_mm.size, theta.size))
