@@ -58,7 +58,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CUT_S", "PowerLawKernel", "relaxation_weights", "hereditary_force", "start_time"]
+__all__ = ["CUT_S", "PowerLawKernel", "exponential_weights", "hereditary_force", "log_lags", "prony_weights",
+           "relaxation_weights", "start_time"]
 
 #: cut of the power-law kernel at short times, s (its instantaneous modulus is finite)
 CUT_S = 1e-5
@@ -129,7 +130,63 @@ def _step_means(prony, lag_start, lag_end, dt) -> np.ndarray:
     return W
 
 
-def relaxation_weights(time_s, prony) -> np.ndarray:
+def _lower(n: int) -> np.ndarray:
+    """The (n, n - 1) mask of the steps j that act on the time t_n (j < n)."""
+    return np.tri(n, n - 1, -1, dtype=bool)
+
+
+def exponential_weights(time_s, tau_s: float) -> np.ndarray:
+    r"""E[n, j] = mean of exp(-(t_n - s) / tau) over step j (s in [t_j, t_{j+1}]), zero for j >= n.
+
+    One exponential per entry: over a step the mean is the kernel at the step's end times
+    :math:`\tau (1 - e^{-\Delta t_j/\tau}) / \Delta t_j` (``expm1``: exact for steps far shorter
+    than tau), 1 for a step of no duration.
+
+    Parameters
+    ----------
+    time_s : array_like, shape (n,)
+        Non-decreasing times, s.
+    tau_s : float
+        Relaxation time, s (> 0).
+
+    Returns
+    -------
+    ndarray, shape (n, n - 1)
+    """
+    t = np.asarray(time_s, dtype=float)
+    dt = np.diff(t)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = np.where(dt > 0, -np.expm1(-dt / tau_s) * tau_s / dt, 1.0)
+    lag_end = np.where(_lower(t.size), t[:, None] - t[None, 1:], np.inf)  # t_n - t_{j+1}; inf: no weight
+    out = np.exp(lag_end * (-1.0 / tau_s))
+    out *= step
+    return out
+
+
+def log_lags(time_s, cut_s: float = CUT_S) -> np.ndarray:
+    """``L[n, k] = log(max(t_n - t_k, 0) + cut_s)`` (n, n): what the power-law weights of every exponent
+    share (:func:`relaxation_weights`' ``log_lags``)."""
+    t = np.asarray(time_s, dtype=float)
+    return np.log(np.maximum(t[:, None] - t[None, :], 0.0) + cut_s)
+
+
+def _power_law_weights(t: np.ndarray, kernel: PowerLawKernel, logs=None) -> np.ndarray:
+    """:func:`relaxation_weights` of the power-law kernel: its integral at the lags to every time once
+    (``P[n, k] = (t_n - t_k + t_c)^(1 - beta)``, a step's mean the difference of two neighbours)."""
+    dt = np.diff(t)
+    a = 1.0 - kernel.beta
+    logs = log_lags(t, kernel.cut_s) if logs is None else logs
+    with np.errstate(divide="ignore", invalid="ignore"):
+        P = np.exp(a * logs)  # (n, n)
+        means = (P[:, :-1] - P[:, 1:]) * (kernel.t0_s**kernel.beta / a) / dt
+        if np.any(dt == 0):
+            zero = np.flatnonzero(dt == 0)
+            means[:, zero] = kernel.value(np.maximum(t[:, None] - t[None, zero], 0.0))
+    means[~_lower(t.size)] = 0.0
+    return means
+
+
+def relaxation_weights(time_s, prony, *, log_lags=None) -> np.ndarray:
     r"""W[n, j] = mean of psi(t_n - s) over step j (s in [t_j, t_{j+1}]), zero for j >= n.
 
     Parameters
@@ -139,20 +196,40 @@ def relaxation_weights(time_s, prony) -> np.ndarray:
     prony : sequence of (g, tau_s), or PowerLawKernel
         The relaxation function: Prony terms (relative modulus, relaxation time in s), or a
         kernel with ``value(lag)`` and ``integral(lag)`` (:class:`PowerLawKernel`).
+    log_lags : ndarray, optional
+        :func:`log_lags` of ``time_s`` and the power law's cut (to reuse across exponents).
 
     Returns
     -------
     ndarray, shape (n, n - 1)
         So that :math:`\int_0^{t_n} \psi(t_n - s) \dot x(s) ds = \sum_j W_{nj} \Delta x_j`
         for any x piecewise linear in time.
+
+    Notes
+    -----
+    A Prony series is :math:`g_\infty` on every acting step plus each term's
+    :func:`exponential_weights` (one exponential per entry); the power law takes its integral at the
+    lags to every time once (one exponential of a logarithm per entry).
     """
     t = np.asarray(time_s, dtype=float)
-    dt = np.diff(t)
-    if np.any(dt < 0):
+    if np.any(np.diff(t) < 0):
         raise ValueError("time_s must not decrease")
-    lag_end = t[:, None] - t[None, 1:]      # t_n - t_{j+1}
-    lag_start = t[:, None] - t[None, :-1]   # t_n - t_j
-    return np.tril(_step_means(prony, lag_start, lag_end, dt[None, :]), -1)  # step j acts on t_n only when j < n
+    if isinstance(prony, PowerLawKernel):
+        return _power_law_weights(t, prony, log_lags)
+    g, tau = _check_prony(prony)
+    W = _lower(t.size) * (1.0 - g.sum())
+    for gi, ti in zip(g, tau):
+        W += gi * exponential_weights(t, ti)
+    return W
+
+
+def prony_weights(time_s, g: float, exponential: np.ndarray) -> np.ndarray:
+    """The :func:`relaxation_weights` of one Prony term ``(g, tau)`` from its :func:`exponential_weights`
+    (which do not depend on ``g``: a fit's step in ``g`` alone reuses them)."""
+    n = np.asarray(time_s).size
+    W = _lower(n) * (1.0 - g)
+    W += g * exponential
+    return W
 
 
 def start_time(time_s) -> float:
@@ -225,8 +302,12 @@ def _force(W, h, fe, initial) -> np.ndarray:
         fit = receding & seen
         with np.errstate(divide="ignore", invalid="ignore"):
             before = np.where(fit, A[rows, k] / (A[rows, k] - A[rows, k1]), 0.0)  # fraction of step k before t_1
-        partial = np.cumsum(np.c_[np.zeros(rec.size), Wr * dfe], axis=1)  # partial[i, k] = W[n, :k] @ dfe[:k]
-        new = initial[rec] + partial[rows, k] + before * Wr[rows, k] * dfe[k]
+        # W[n, :k] @ dfe[:k], over the steps where the elastic force changes (in contact) only
+        acting = np.flatnonzero(dfe)
+        done = np.cumsum(Wr[:, acting] * dfe[acting], axis=1)
+        below = np.searchsorted(acting, k)  # acting steps before step k
+        partial = np.where(below > 0, done[rows, np.maximum(below - 1, 0)] if acting.size else 0.0, 0.0)
+        new = initial[rec] + partial + before * Wr[rows, k] * dfe[k]
         force[rec[fit]] = new[fit]
         force[rec[receding & ~seen]] = 0.0  # receded past first contact
     return np.maximum(force, 0.0) if np.all(fe >= 0) else force

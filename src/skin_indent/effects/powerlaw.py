@@ -23,7 +23,7 @@ to the kernel over [0, 1e4 s] (:func:`~skin_indent.mechanics.materials.viscoelas
 from __future__ import annotations
 
 from .base import HISTORY, EffectParameter, Evaluation, ForwardSpec
-from .hereditary import PowerLawKernel, hereditary_force, relaxation_weights
+from .hereditary import PowerLawKernel, hereditary_force, log_lags, relaxation_weights
 from .viscoelastic import Viscoelastic
 
 #: the largest exponent a fit tries (cells: 0.1-0.4; 0.8 is nearly a fluid)
@@ -72,5 +72,7 @@ class PowerLaw(Viscoelastic):
         if beta not in weights:
             if len(weights) > 64:
                 weights.clear()
-            weights[beta] = relaxation_weights(ev.time_s, PowerLawKernel(beta))
+            if "power_law_log_lags" not in ev.cache:  # shared by every exponent (the times do not change)
+                ev.cache["power_law_log_lags"] = log_lags(ev.time_s)
+            weights[beta] = relaxation_weights(ev.time_s, PowerLawKernel(beta), log_lags=ev.cache["power_law_log_lags"])
         ev.force_mN = hereditary_force(ev.time_s, ev.h_mm, ev.force_mN, PowerLawKernel(beta), weights=weights[beta])

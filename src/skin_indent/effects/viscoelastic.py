@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import HISTORY, Effect, EffectParameter, Evaluation, ForwardSpec
-from .hereditary import hereditary_force, relaxation_weights
+from .hereditary import exponential_weights, hereditary_force, prony_weights
 
 
 class Viscoelastic(Effect):
@@ -44,12 +44,14 @@ class Viscoelastic(Effect):
 
     def apply(self, ev: Evaluation, fit: dict) -> None:
         g, tau = float(fit["g1"]), float(fit["tau1_s"])
-        weights = ev.cache.setdefault("relaxation_weights", {})
-        if (g, tau) not in weights:
-            if len(weights) > 64:
-                weights.clear()
-            weights[(g, tau)] = relaxation_weights(ev.time_s, ((g, tau),))
-        ev.force_mN = hereditary_force(ev.time_s, ev.h_mm, ev.force_mN, ((g, tau),), weights=weights[(g, tau)])
+        # the term's exponential weights depend on tau alone (a step in g1 reuses them; 64 kept per model)
+        exponential = ev.cache.setdefault("exponential_weights", {})
+        if tau not in exponential:
+            if len(exponential) > 64:
+                exponential.clear()
+            exponential[tau] = exponential_weights(ev.time_s, tau)
+        weights = prony_weights(ev.time_s, g, exponential[tau])
+        ev.force_mN = hereditary_force(ev.time_s, ev.h_mm, ev.force_mN, ((g, tau),), weights=weights)
 
     def visible(self, data, noise_mN):
         if data.time_s is None:

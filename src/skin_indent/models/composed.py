@@ -64,16 +64,21 @@ class ComposedModel:
         if d.shape != self.depth_mm.shape or not np.array_equal(d, self.depth_mm):
             raise ValueError(f"model {self.name} is bound to its measured history: pass its own depths")
 
-    def evaluate(self, theta, core_change=None) -> Evaluation:
+    def _evaluation(self, h_mm, force_mN=None) -> Evaluation:
+        return Evaluation(self.depth_mm, self.time_s, h_mm, self.radius_mm, force_mN=force_mN, cache=self._cache,
+                          kind=getattr(self.data, "kind", None), baseline=getattr(self.data, "baseline", None),
+                          deflection_mm=getattr(self.data, "deflection_mm", None))
+
+    def evaluate(self, theta, core_change=None, *, before=None) -> Evaluation:
         """All stages at the parameters ``theta`` (the force is ``.force_mN``).
 
         ``core_change``, an array over the depths in contact, is added to the elastic force
-        before the later stages act (directional derivatives through them).
+        before the later stages act (directional derivatives through them). ``before``, a dict,
+        receives the force ahead of each stage after the elastic one (``{stage: force}``; the
+        stage's effects and those after it start from there: :meth:`_from_stage`).
         """
         theta = np.asarray(theta, dtype=float)
-        ev = Evaluation(self.depth_mm, self.time_s, self.depth_mm.copy(), self.radius_mm, cache=self._cache,
-                        kind=getattr(self.data, "kind", None), baseline=getattr(self.data, "baseline", None),
-                        deflection_mm=getattr(self.data, "deflection_mm", None))
+        ev = self._evaluation(self.depth_mm.copy())
         values = [(e, dict(zip(e.fit_names, theta[s]))) for e, s in self._slices]
         for e, fit in values:
             if e.stage == DEPTH:
@@ -91,8 +96,24 @@ class ComposedModel:
         ev.force_mN = force
         for e, fit in values:
             if e.stage != DEPTH:
+                if before is not None and e.stage not in before:
+                    before[e.stage] = ev.force_mN  # the effects replace the array, never change it in place
                 e.apply(ev, fit)
         return ev
+
+    def _from_stage(self, theta, stage: str, force_mN, h_mm) -> np.ndarray:
+        """The force at ``theta`` from ``force_mN``, the force ahead of ``stage`` (:meth:`evaluate`'s
+        ``before``) at a ``theta`` that differs from this one only in parameters of that stage or later,
+        and the depths below the contact point ``h_mm``: only the effects of ``stage`` and later act.
+        The same numbers as :meth:`evaluate`, without the stages before (the elastic core, a hereditary
+        integral) made again."""
+        theta = np.asarray(theta, dtype=float)
+        ev = self._evaluation(h_mm, force_mN)
+        first = STAGE_ORDER.index(stage)
+        for e, s in self._slices:
+            if e.stage != DEPTH and STAGE_ORDER.index(e.stage) >= first:
+                e.apply(ev, dict(zip(e.fit_names, theta[s])))
+        return ev.force_mN
 
     def force(self, depth_mm, theta) -> np.ndarray:
         self._check_depth(depth_mm)
@@ -107,16 +128,20 @@ class ComposedModel:
         """dF/dtheta: central differences of relative step 1e-5 (one-sided at the box faces),
         dF/dE exact where F is linear in E; where the core is the finite-element model in the
         loop, its own derivatives (:meth:`~skin_indent.models.fe_core.FECore.jacobian`)
-        carried through the later stages (which act linearly on the elastic force).
-        Only the ``columns`` asked for (indices; default all) are computed, the others are 0."""
+        carried through the later stages (which act linearly on the elastic force). A parameter of
+        the history or force stage (relaxation, drag, baselines, adhesion) is differenced from the
+        force ahead of its stage at ``theta`` (:meth:`_from_stage`: the same numbers, the elastic core
+        and the stages before not evaluated again). Only the ``columns`` asked for (indices; default
+        all) are computed, the others are 0."""
         theta = np.asarray(theta, dtype=float)
         lo, hi = self.bounds
         J = np.zeros((self.depth_mm.size, theta.size))
         wanted = np.zeros(theta.size, dtype=bool)
         wanted[np.arange(theta.size) if columns is None else columns] = True
         first = 0
+        before: dict = {}  # the force ahead of each later stage at theta: its parameters' columns start there
+        ev = self.evaluate(theta, before=before)
         if self.in_loop:  # the core's own derivatives, carried through the later stages
-            ev = self.evaluate(theta)
             touch = ev.h_mm > 0
             Jc = self.core.jacobian(ev.h_mm[touch], theta[: self._n_core],
                                     columns=np.flatnonzero(wanted[: self._n_core]))
@@ -130,18 +155,25 @@ class ComposedModel:
                 J[:, i] = (self.evaluate(theta, eps * Jc[:, i]).force_mN
                            - self.evaluate(theta, -eps * Jc[:, i]).force_mN) / (2 * eps)
             first = self._n_core
+        self._check_depth(depth_mm)
+        stages = {i: e.stage for e, s in self._slices for i in range(s.start, s.stop)}
         for i in range(first, theta.size):
             if not wanted[i]:
                 continue
             if i == 0 and self._linear_in_E:  # F is exactly proportional to the modulus of the top material
-                J[:, 0] = self.force(depth_mm, theta) / theta[0]
+                J[:, 0] = ev.force_mN / theta[0]
                 continue
             span = hi[i] - lo[i]
             step = 1e-5 * max(abs(theta[i]), 1e-2 * span if math.isfinite(span) else 1e-3)
             up, down = theta.copy(), theta.copy()
             up[i] = min(theta[i] + step, hi[i])
             down[i] = max(theta[i] - step, lo[i])
-            J[:, i] = (self.force(depth_mm, up) - self.force(depth_mm, down)) / (up[i] - down[i])
+            stage = stages.get(i)
+            if stage in before:  # a parameter of a later stage: the stages before it are those at theta
+                J[:, i] = ((self._from_stage(up, stage, before[stage], ev.h_mm)
+                            - self._from_stage(down, stage, before[stage], ev.h_mm)) / (up[i] - down[i]))
+            else:
+                J[:, i] = (self.force(depth_mm, up) - self.force(depth_mm, down)) / (up[i] - down[i])
         return J
 
     def model_parameters(self, x) -> dict:
