@@ -221,6 +221,7 @@ def test_fits_in_the_loop_run_side_by_side():
     class Stub(Fitter):
         def __init__(self):
             self.fits = {}
+            self._seen = threading.local()  # what each fit_all thread's warm starts may read
 
         def check_points_before_building(self, key):
             pass  # no curve here: every model has points enough
