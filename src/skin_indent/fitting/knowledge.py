@@ -22,7 +22,7 @@ DETERMINED_BY = {"data": "determined by the data", "prior": "determined by the p
 
 
 def prior_summary(posterior: float, posterior_sd: float, mean: float, sd: float, alone=None) -> dict:
-    """What the data did to a Gaussian prior ``mean +- sd`` on one parameter.
+    r"""What the data did to a Gaussian prior ``mean +- sd`` on one parameter.
 
     ``narrowed`` = posterior sd / prior sd (1: the data added nothing); ``determined_by``
     ``"data"`` (below :data:`DATA_DETERMINED`), ``"prior"`` (above :data:`PRIOR_DETERMINED`)
