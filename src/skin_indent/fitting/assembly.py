@@ -20,6 +20,7 @@ from ..inverse.result import jacobian_covariance
 from ..measurement.scale import joined
 from .ended import how_it_ended, reported_message
 from .knowledge import needs_data_alone, prior_rows, prior_summary
+from .resume import resumed
 from .result import FitResult, scored
 from .rung import NO_STRUCTURE, reported_covariance, structure_sentence
 
@@ -54,9 +55,9 @@ def assemble(fitter, model, key: tuple, best, known: dict, options: dict, runs: 
     knowledge = {k: prior_summary(params[k], std.get(k, math.nan), *fitter.priors[k])
                  for k in fitter.priors if k in params}
     for k, summary in knowledge.items():
-        if needs_data_alone(summary):  # the linearised tension of a prior-determined parameter: refit without it
-            knowledge[k] = prior_summary(params[k], std.get(k, math.nan), *fitter.priors[k],
-                                         alone=data_alone(fitter, model, x, known, options, k))
+        alone = data_alone(fitter, model, x, known, options, k) if needs_data_alone(summary) else None
+        if alone is not None:  # the linearised tension of a prior-determined parameter: the fit without it says
+            knowledge[k] = prior_summary(params[k], std.get(k, math.nan), *fitter.priors[k], alone=alone)
     r = best.residuals_mN
     s = fitter.sigma(pred)
     try:
@@ -93,17 +94,25 @@ def coordinates(model, best) -> tuple[np.ndarray, np.ndarray]:
     return x, cov
 
 
-def data_alone(fitter, model, x, known: dict, options: dict, name: str) -> tuple[float, float]:
+def data_alone(fitter, model, x, known: dict, options: dict, name: str) -> tuple[float, float] | None:
     """``(value, sd)`` of the reported parameter ``name`` by the fit of ``model`` without its prior,
-    from the fit with it at ``x`` (the fit coordinates); NaN where that fit fails
-    (:func:`~.knowledge.needs_data_alone` says when it is made)."""
+    from the fit with it at ``x`` (the fit coordinates), resumed as the fit itself is where its budget
+    stops it; None where that fit fails or still stops at its budget: then the linearised statistic
+    stands (:func:`~.knowledge.needs_data_alone` says when it is made)."""
     terms = fitter.prior_terms(model, but=name)
     d = fitter.data
+    known = {**known, "priors": terms or None}
     try:
-        alone = fit_least_squares(model, d.depth_mm, d.force_mN, x, noise_mN=fitter.noise_mN,
-                                  **{**known, "priors": terms or None}, **options)
+        alone = fit_least_squares(model, d.depth_mm, d.force_mN, x, noise_mN=fitter.noise_mN, **known, **options)
+        if alone.status == 0:  # stopped by its budget: on from where it got
+            alone = resumed(model, d.depth_mm, d.force_mN, alone, noise_mN=fitter.noise_mN, known=known,
+                            options=options)
     except ValueError:
-        return math.nan, math.nan
+        return None
+    if alone.status == 0:
+        log.info("%s: the fit without the prior on %s stopped at its budget: the linearised tension stands",
+                 model.name, name)
+        return None
     params, std = model.reported(*coordinates(model, alone))
     log.info("%s: the prior's tension checked by the fit without it: %s = %.4g +- %.2g", model.name, name,
              params[name], std.get(name, math.nan))

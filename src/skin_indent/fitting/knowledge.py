@@ -66,8 +66,8 @@ def needs_data_alone(summary: dict) -> bool:
     model a shift of a fraction of the prior's sd, made by the model's curvature, reads as many sd
     (measured: the forearm-like curve's two layers with the dermis thickness 1.0 +- 0.1 mm, the truth,
     ended at 1.067 +- 0.0991 mm; extrapolated, the data alone would say 4.7 +- 0.74 mm, 5.0 combined sd
-    from the prior; fitted without the prior they say 1.30 +- 0.79 mm, 0.38 sd). A prior 5 sd from the truth and four times narrower than the data's sd reads the
-    same by the posterior alone (measured, the v02 layer curve: ``narrowed`` 0.99): only the fit
+    from the prior; fitted without the prior they say 1.32 +- 0.38 mm, 0.81 sd). A prior 5 sd from the
+    truth and four times narrower than the data's sd reads the same by the posterior alone (measured, the v02 layer curve: ``narrowed`` 0.99): only the fit
     without the prior tells them apart.
     """
     return bool(summary["in_tension"] and summary["determined_by"] == "prior")
